@@ -1,0 +1,109 @@
+"""The launch layer: split a pass into disjoint pieces launched from several threads.
+
+A Warp CPU launch runs on one thread, but Warp releases the GIL while it runs, so
+launching disjoint pieces of a pass from two Python threads uses both cores.  Every
+per-pixel kernel in the renderer takes ``row0, row_step`` as its last two inputs and
+processes rows ``row0, row0 + row_step, ...`` (interleaved rows balance the load
+better than bands).  On a CUDA device one piece covers everything.
+
+Passes whose writes could collide (the visibility buffer) use ``Launcher.run`` with
+one output buffer per piece and merge them afterwards.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Sequence
+from concurrent.futures import ThreadPoolExecutor
+from typing import Any
+
+import warp as wp
+
+
+def default_thread_count(device: wp.context.Device) -> int:
+    """Host threads to launch from: the CPU count on a CPU device, 1 on a GPU.
+
+    ``WARP_HYBRID_THREADS`` overrides it (benchmarks use it to compare 1 vs 2).
+    """
+    env = os.environ.get("WARP_HYBRID_THREADS")
+    if env:
+        return max(1, int(env))
+    if device.is_cuda:
+        return 1
+    return max(1, min(os.cpu_count() or 1, 8))
+
+
+class Launcher:
+    """Runs the pieces of a pass on a small persistent thread pool."""
+
+    def __init__(self, device: wp.context.Device | str, threads: int | None = None) -> None:
+        """Create a launcher for ``device`` with ``threads`` pieces per pass."""
+        self.device = wp.get_device(device)
+        self.threads = threads if threads is not None else default_thread_count(self.device)
+        self._pool = ThreadPoolExecutor(max_workers=self.threads) if self.threads > 1 else None
+        self._loaded: set[int] = set()
+
+    def close(self) -> None:
+        """Stop the worker threads."""
+        if self._pool is not None:
+            self._pool.shutdown(wait=True)
+            self._pool = None
+
+    def __enter__(self) -> Launcher:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def ensure_loaded(self, kernel: wp.Kernel) -> None:
+        """Compile/load a kernel's module before threads race to do it."""
+        key = id(kernel.module)
+        if key not in self._loaded:
+            wp.load_module(kernel.module, device=self.device)
+            self._loaded.add(key)
+
+    def run(self, piece: Callable[[int, int], Any], pieces: int | None = None) -> list[Any]:
+        """Call ``piece(k, n)`` for k in 0..n-1, in parallel threads; return results.
+
+        Exceptions from any piece propagate to the caller.
+        """
+        n = self.threads if pieces is None else pieces
+        if n <= 1 or self._pool is None:
+            return [piece(k, n) for k in range(n)]
+        futures = [self._pool.submit(piece, k, n) for k in range(n)]
+        return [f.result() for f in futures]
+
+    def launch_rows(self, kernel: wp.Kernel, height: int, width: int, inputs: Sequence[Any]) -> None:
+        """Launch a per-pixel kernel over rows split across threads.
+
+        The kernel's last two inputs must be ``row0: int, row_step: int``; its launch
+        dimension is ``(rows in this piece, width)`` and it maps ``tid`` row r to image
+        row ``row0 + r * row_step``.
+        """
+        if height <= 0 or width <= 0:
+            return
+        self.ensure_loaded(kernel)
+        n = min(self.threads, height)
+
+        def piece(k: int, count: int) -> None:
+            rows = (height - k + count - 1) // count
+            wp.launch(kernel, dim=(rows, width), inputs=[*inputs, k, count], device=self.device)
+
+        self.run(piece, n)
+
+    def launch_items(self, kernel: wp.Kernel, count: int, inputs: Sequence[Any]) -> None:
+        """Launch a 1-D kernel over ``count`` items split across threads.
+
+        The kernel's last two inputs must be ``start: int, step: int``; thread ``tid``
+        handles item ``start + tid * step``.
+        """
+        if count <= 0:
+            return
+        self.ensure_loaded(kernel)
+        n = min(self.threads, count)
+
+        def piece(k: int, pieces: int) -> None:
+            items = (count - k + pieces - 1) // pieces
+            wp.launch(kernel, dim=items, inputs=[*inputs, k, pieces], device=self.device)
+
+        self.run(piece, n)

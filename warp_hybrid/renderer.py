@@ -1,0 +1,177 @@
+"""The renderer as a library: a scene in, frames out, every stage timed.
+
+``Renderer`` owns everything that lives across frames (the device scene and its BVH,
+the stage objects, the frame buffers); each call to ``render`` takes all per-frame
+state explicitly (camera, time) and returns a ``Frame`` with the colour, the
+G-buffer AOVs and per-stage statistics.  There are no module-level globals; the clock
+is injected.
+
+Pipeline stages, in order (one subpackage each): scene -> raster -> lighting ->
+focus -> trace -> compose -> post.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import warp as wp
+
+from .errors import RenderSettingsError
+from .lighting.deferred import DeferredLighting
+from .parallel import Launcher
+from .post.postprocess import PostProcess
+from .raster.gbuffer import GBuffer
+from .raster.raycast import RayCaster
+from .raster.rasterizer import Rasterizer
+from .runtime import resolve_device
+from .scene.device import DeviceScene, make_camera_gpu
+from .scene.model import Camera, Scene
+from .timing import Clock, StageTimer, perf_clock
+
+PRIMARY_PATHS = ("raster", "raycast")
+TONEMAPS = ("aces", "reinhard", "none")
+
+
+@dataclass
+class RenderSettings:
+    """Everything that stays fixed while frames are rendered.
+
+    ``exposure_ev``: None = automatic (key 0.18 over the log-average luminance),
+    otherwise a fixed exposure in stops.  ``threads``: host threads per pass (None =
+    one per core on the CPU, 1 on CUDA).
+    """
+
+    width: int = 640
+    height: int = 480
+    device: str = "cpu"
+    primary: str = "raster"
+    exposure_ev: float | None = None
+    tonemap: str = "aces"
+    antialias: bool = True
+    threads: int | None = None
+
+    def validate(self) -> None:
+        """Raise ``RenderSettingsError`` for values that cannot be honoured."""
+        if not (1 <= self.width <= 16384 and 1 <= self.height <= 16384):
+            raise RenderSettingsError(f"image size {self.width}x{self.height} is out of range (1..16384)")
+        if self.primary not in PRIMARY_PATHS:
+            raise RenderSettingsError(f"primary path {self.primary!r} is not one of {', '.join(PRIMARY_PATHS)}")
+        if self.tonemap not in TONEMAPS:
+            raise RenderSettingsError(f"tone mapping {self.tonemap!r} is not one of {', '.join(TONEMAPS)}")
+        if self.threads is not None and self.threads < 1:
+            raise RenderSettingsError(f"threads must be >= 1, got {self.threads}")
+
+
+@dataclass
+class Frame:
+    """One rendered frame.
+
+    ``color``: (H, W, 3) float32 linear radiance before exposure and tone mapping.
+    ``image``: (H, W, 3) uint8 sRGB after exposure, tone mapping and anti-aliasing.
+    ``stats``: JSON-ready dict (ms per stage, triangles, resolution, device, ...).
+    ``gbuffer`` is the renderer's own buffer: valid until its next ``render``.
+    """
+
+    color: np.ndarray
+    image: np.ndarray
+    gbuffer: GBuffer
+    stats: dict[str, Any] = field(default_factory=dict)
+
+    def aovs(self) -> dict[str, np.ndarray]:
+        """The AOV contract: depth, position, normal, albedo from the G-buffer and
+        color (linear, before tone mapping)."""
+        out = self.gbuffer.aovs()
+        out["color"] = self.color.astype(np.float32)
+        return out
+
+
+def pick_camera(scene: Scene, name: str | None = None) -> Camera:
+    """The camera whose prim path is ``name``; the scene's first camera when None."""
+    if not scene.cameras:
+        raise RenderSettingsError(f"{scene.path}: the scene has no camera")
+    if name is None:
+        return scene.cameras[0]
+    for cam in scene.cameras:
+        if cam.name == name:
+            return cam
+    available = ", ".join(c.name for c in scene.cameras)
+    raise RenderSettingsError(f"{scene.path}: no camera {name!r} (cameras: {available})")
+
+
+class Renderer:
+    """Renders frames of one scene on one device at one resolution."""
+
+    def __init__(self, scene: Scene, settings: RenderSettings | None = None, clock: Clock = perf_clock) -> None:
+        """Upload ``scene`` and build the BVH; ``clock`` times every stage."""
+        self.settings = settings or RenderSettings()
+        self.settings.validate()
+        self.clock = clock
+        self.device = resolve_device(self.settings.device)
+        self._sync = (lambda: wp.synchronize_device(self.device)) if self.device.is_cuda else None
+        self.setup_ms: dict[str, float] = {}
+        timer = self._timer()
+        self.device_scene = DeviceScene(scene, self.device, timer)
+        self.setup_ms = dict(timer.stages_ms)
+        self.launcher = Launcher(self.device, self.settings.threads)
+        primary_cls = Rasterizer if self.settings.primary == "raster" else RayCaster
+        self.primary = primary_cls(self.launcher)
+        self.lighting = DeferredLighting(self.launcher)
+        self.post = PostProcess(self.launcher)
+        w, h = self.settings.width, self.settings.height
+        self.gbuffer = GBuffer.allocate(w, h, self.device)
+        self.color = wp.zeros((h, w), dtype=wp.vec3, device=self.device)
+
+    @property
+    def scene(self) -> Scene:
+        """The scene currently on the device."""
+        return self.device_scene.scene
+
+    def _timer(self) -> StageTimer:
+        return StageTimer(clock=self.clock, sync=self._sync)
+
+    def close(self) -> None:
+        """Release the worker threads."""
+        self.launcher.close()
+
+    def __enter__(self) -> Renderer:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def update_scene(self, scene: Scene) -> float:
+        """Swap in the same scene at another time (same topology): copy the moved
+        points and refit the BVH.  Returns the milliseconds it took."""
+        timer = self._timer()
+        with timer.stage("refit"):
+            self.device_scene.update(scene)
+        return timer.total_ms
+
+    def render(self, camera: Camera) -> Frame:
+        """Render one frame through ``camera``."""
+        s = self.settings
+        timer = self._timer()
+        cam = make_camera_gpu(camera, s.width, s.height)
+        self.gbuffer.clear()
+        self.primary.render(self.device_scene, cam, self.gbuffer, timer)
+        self.lighting.shade(self.device_scene, cam, self.gbuffer, self.color, timer)
+        image = self.post.run(self.color, s.exposure_ev, s.tonemap, s.antialias, timer)
+        with timer.stage("readback"):
+            color = self.color.numpy().astype(np.float32)
+        stats = {
+            "scene": self.scene.path,
+            "camera": camera.name,
+            "time": self.scene.time,
+            "device": str(self.device.alias),
+            "primary": s.primary,
+            "resolution": [s.width, s.height],
+            "triangles": self.scene.triangle_count,
+            "threads": self.launcher.threads,
+            "effects": self.device_scene.features.names(),
+            "setup_ms": dict(self.setup_ms),
+            "stages_ms": dict(timer.stages_ms),
+            "frame_ms": timer.total_ms,
+        }
+        return Frame(color=color, image=image, gbuffer=self.gbuffer, stats=stats)

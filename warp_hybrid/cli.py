@@ -13,6 +13,7 @@ import time
 from collections.abc import Sequence
 
 from .errors import WarpHybridError
+from .post.postprocess import TONEMAPS
 
 
 def parse_size(text: str) -> tuple[int, int]:
@@ -48,23 +49,24 @@ def _add_render_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--stats-json", default=None, help="write per-stage timings and counts as JSON here")
     p.add_argument("--primary", choices=("raster", "raycast"), default="raster", help="primary visibility path")
     p.add_argument("--exposure", type=parse_exposure, default=None, help="'auto' (default) or stops (EV)")
-    p.add_argument("--tonemap", choices=("aces", "reinhard", "none"), default="aces", help="tone mapping operator")
+    p.add_argument("--tonemap", choices=TONEMAPS, default="aces", help="tone mapping operator")
     p.add_argument("--no-aa", dest="antialias", action="store_false", help="turn the FXAA post pass off")
     p.add_argument("--threads", type=int, default=None, help="host threads per pass (default: one per core)")
 
 
 def _cmd_render(args: argparse.Namespace) -> int:
     from .output import write_aovs, write_json, write_png
-    from .renderer import Renderer, RenderSettings, pick_camera
+    from .renderer import Renderer, RenderSettings
     from .runtime import init_warp
     from .scene.loader import open_scene_source
+    from .scene.usd_camera import select_camera
 
     init_warp()
     t0 = time.perf_counter()
     source = open_scene_source(args.scene)
     scene = source.scene_at(args.time)
     load_ms = (time.perf_counter() - t0) * 1000.0
-    camera = pick_camera(scene, args.camera)
+    camera = select_camera(scene.cameras, args.camera, source=str(args.scene))
     settings = RenderSettings(
         width=args.size[0],
         height=args.size[1],

@@ -21,7 +21,7 @@ import warp as wp
 from .errors import RenderSettingsError
 from .lighting.deferred import DeferredLighting
 from .parallel import Launcher
-from .post.postprocess import PostProcess
+from .post.postprocess import TONEMAPS, PostProcess
 from .raster.gbuffer import GBuffer
 from .raster.raycast import RayCaster
 from .raster.rasterizer import Rasterizer
@@ -31,7 +31,6 @@ from .scene.model import Camera, Scene
 from .timing import Clock, StageTimer, perf_clock
 
 PRIMARY_PATHS = ("raster", "raycast")
-TONEMAPS = ("aces", "reinhard", "none")
 
 
 @dataclass
@@ -85,19 +84,6 @@ class Frame:
         out = self.gbuffer.aovs()
         out["color"] = self.color.astype(np.float32)
         return out
-
-
-def pick_camera(scene: Scene, name: str | None = None) -> Camera:
-    """The camera whose prim path is ``name``; the scene's first camera when None."""
-    if not scene.cameras:
-        raise RenderSettingsError(f"{scene.path}: the scene has no camera")
-    if name is None:
-        return scene.cameras[0]
-    for cam in scene.cameras:
-        if cam.name == name:
-            return cam
-    available = ", ".join(c.name for c in scene.cameras)
-    raise RenderSettingsError(f"{scene.path}: no camera {name!r} (cameras: {available})")
 
 
 class Renderer:
@@ -157,7 +143,7 @@ class Renderer:
         self.gbuffer.clear()
         self.primary.render(self.device_scene, cam, self.gbuffer, timer)
         self.lighting.shade(self.device_scene, cam, self.gbuffer, self.color, timer)
-        image = self.post.run(self.color, s.exposure_ev, s.tonemap, s.antialias, timer)
+        image = self.post.run(self.color, s.exposure_ev, s.tonemap, s.antialias, timer, self.gbuffer.hit_mask())
         with timer.stage("readback"):
             color = self.color.numpy().astype(np.float32)
         stats = {
@@ -173,5 +159,6 @@ class Renderer:
             "setup_ms": dict(self.setup_ms),
             "stages_ms": dict(timer.stages_ms),
             "frame_ms": timer.total_ms,
+            "exposure_ev": self.post.last_exposure_ev,
         }
         return Frame(color=color, image=image, gbuffer=self.gbuffer, stats=stats)

@@ -1,0 +1,161 @@
+"""Deferred lighting: shade every G-buffer pixel (the lighting kernels' one module).
+
+Per pixel: ``shading.shade_surface`` with the sum over the scene's lights of
+``direct_light`` (times the per-light RGB transmittance when the shadow tracer has
+filled one), i.e. emission + direct diffuse/specular + the dome's SH diffuse and
+prefiltered glossy light (+ the raster approximation for transmissive materials).
+Background pixels get the dome's radiance along the camera ray (black without a dome).
+The shadowed and unshadowed variants are two kernels generated from one closure.
+"""
+
+from __future__ import annotations
+
+import warp as wp
+
+from ..parallel import Launcher
+from ..raster.gbuffer import GBuffer
+from ..scene.device import CameraGPU, DeviceScene, SceneGPU
+from ..scene.environment import environment_radiance
+from ..timing import StageTimer
+from .ambient import AmbientGPU, EnvironmentLighting
+from .shading import diffuse_albedo, direct_light, shade_surface
+
+wp.set_module_options({"enable_backward": False})
+
+
+@wp.func
+def camera_ray_direction(cam: CameraGPU, x: int, y: int) -> wp.vec3:
+    """Unit world direction of the camera ray through the centre of pixel (x, y)."""
+    ndc_x = 2.0 * (float(x) + 0.5) / float(cam.width) - 1.0
+    ndc_y = 1.0 - 2.0 * (float(y) + 0.5) / float(cam.height)
+    return wp.normalize(cam.forward + cam.right * (ndc_x * cam.tan_x) + cam.up * (ndc_y * cam.tan_y))
+
+
+def _make_shade_kernel(shadowed: bool) -> wp.Kernel:
+    """The per-pixel lighting kernel; ``shadowed`` multiplies each light by the
+    transmittance buffer (H, W, L), otherwise that argument is ignored."""
+
+    @wp.kernel
+    def shade_pixels(
+        scene: SceneGPU,
+        amb: AmbientGPU,
+        cam: CameraGPU,
+        position: wp.array2d(dtype=wp.vec3),
+        normal: wp.array2d(dtype=wp.vec3),
+        albedo: wp.array2d(dtype=wp.vec3),
+        specular: wp.array2d(dtype=wp.vec3),
+        emission: wp.array2d(dtype=wp.vec3),
+        optics: wp.array2d(dtype=wp.vec4),
+        material_id: wp.array2d(dtype=wp.int32),
+        triangle_id: wp.array2d(dtype=wp.int32),
+        transmittance: wp.array3d(dtype=wp.vec3),
+        color_out: wp.array2d(dtype=wp.vec3),
+        row0: int,
+        row_step: int,
+    ):
+        r, x = wp.tid()
+        y = row0 + r * row_step
+        if triangle_id[y, x] < 0:
+            color_out[y, x] = environment_radiance(scene, camera_ray_direction(cam, x, y))
+            return
+        p = position[y, x]
+        n = normal[y, x]
+        v = wp.normalize(cam.origin - p)
+        opt = optics[y, x]
+        ior = opt[1]
+        opacity = opt[2]
+        roughness = opt[3]
+        flags = int(0)
+        mid = material_id[y, x]
+        if mid >= 0:
+            flags = scene.materials[mid].flags
+        base = albedo[y, x]
+        f0 = specular[y, x]
+        kd = diffuse_albedo(scene, n, v, base, opacity, ior, flags)
+        direct = wp.vec3(0.0, 0.0, 0.0)
+        for i in range(scene.light_count):
+            c = direct_light(scene, i, p, n, v, kd, f0, roughness)
+            if wp.static(shadowed):
+                c = wp.cw_mul(c, transmittance[y, x, i])
+            direct += c
+        color_out[y, x] = shade_surface(
+            scene, amb, n, v, base, kd, f0, roughness, emission[y, x], opacity, ior, flags, direct
+        )
+
+    return shade_pixels
+
+
+shade_unshadowed = _make_shade_kernel(False)
+shade_shadowed = _make_shade_kernel(True)
+
+
+class DeferredLighting:
+    """The "lighting" stage: G-buffer in, linear HDR colour out."""
+
+    def __init__(self, launcher: Launcher) -> None:
+        """Shade on ``launcher``'s device, splitting rows across its threads."""
+        self.launcher = launcher
+        self._no_transmittance: wp.array | None = None
+        launcher.ensure_loaded(shade_unshadowed)  # compiles the lighting module up front
+
+    def _dummy_transmittance(self) -> wp.array:
+        if self._no_transmittance is None:
+            self._no_transmittance = wp.ones((1, 1, 1), dtype=wp.vec3, device=self.launcher.device)
+        return self._no_transmittance
+
+    def shade(
+        self,
+        scene: DeviceScene,
+        camera: CameraGPU,
+        gbuffer: GBuffer,
+        color_out: wp.array,
+        timer: StageTimer,
+        light_transmittance: wp.array | None = None,
+    ) -> None:
+        """Write linear radiance (H, W) vec3 into ``color_out``.
+
+        ``light_transmittance`` (H, W, L) vec3, L = number of lights, multiplies each
+        light per pixel (shadows); None means unshadowed."""
+        h, w = gbuffer.height, gbuffer.width
+        if tuple(color_out.shape) != (h, w) or (camera.width, camera.height) != (w, h):
+            raise ValueError(
+                f"color_out {tuple(color_out.shape)} and camera {camera.width}x{camera.height} "
+                f"must match the G-buffer ({w}x{h})"
+            )
+        lights = scene.gpu.light_count
+        if light_transmittance is None:
+            kernel = shade_unshadowed
+            transmittance = self._dummy_transmittance()
+        else:
+            expected = (h, w, lights)
+            if lights > 0 and tuple(light_transmittance.shape) != expected:
+                raise ValueError(f"light_transmittance has shape {tuple(light_transmittance.shape)}, expected {expected}")
+            kernel = shade_shadowed
+            transmittance = light_transmittance
+        ambient = EnvironmentLighting.for_scene(scene)
+        with timer.stage("lighting"):
+            self.launcher.launch_rows(
+                kernel,
+                h,
+                w,
+                [
+                    scene.gpu,
+                    ambient.gpu,
+                    camera,
+                    gbuffer.position,
+                    gbuffer.normal,
+                    gbuffer.albedo,
+                    gbuffer.specular,
+                    gbuffer.emission,
+                    gbuffer.optics,
+                    gbuffer.material_id,
+                    gbuffer.triangle_id,
+                    transmittance,
+                    color_out,
+                ],
+            )
+
+
+def transmittance_buffer(height: int, width: int, lights: int, device: wp.context.Device | str) -> wp.array:
+    """An all-ones (H, W, max(L, 1)) vec3 transmittance buffer for the shadow tracer to fill."""
+    return wp.ones((height, width, max(lights, 1)), dtype=wp.vec3, device=device)

@@ -1,0 +1,102 @@
+"""Shading of one surface point (``@wp.func``), shared by deferred lighting and the tracer.
+
+The radiance leaving a surface toward the viewer is assembled by the caller as::
+
+    kd     = diffuse_albedo(scene, n, v, albedo, opacity, ior, flags)
+    direct = sum_i T_i * direct_light(scene, i, p, n, v, kd, f0, roughness)
+    Lo     = shade_surface(scene, amb, n, v, albedo, kd, f0, roughness, emission,
+                           opacity, ior, flags, direct)
+
+where ``T_i`` is the caller's RGB transmittance toward light i (1 unshadowed; the
+deferred pass reads it from the shadow tracer's buffer, the tracer computes it with
+shadow rays at secondary hits).  Callers that trace light paths themselves use the
+pieces: ``light_response`` for a light sample they already have, ``ambient_diffuse``
+and ``ambient_specular`` (``lighting/ambient.py``) separately.
+
+Conventions: ``n`` unit shading normal facing the viewer, ``v`` unit direction toward
+the viewer, ``albedo`` the diffuse colour (already times 1 - metallic; the
+transmission tint for glass), ``f0`` the specular colour, ``emission`` the emitted
+radiance.  Metallic is folded into ``albedo``/``f0`` before shading.
+
+Transmissive materials (FLAG_TRANSMISSIVE: glass, tinted panes) in raster-only
+shading (no rays; the tracer replaces this inside the focus window):
+
+* the diffuse lobe is weighted by ``opacity`` (clear glass has no diffuse response,
+  its specular highlights and Fresnel-weighted glossy dome reflection stay);
+* the light passing through, ``(1 - opacity) (1 - F(n.v)) tint * B``, with ``F`` the
+  exact dielectric Fresnel for ``ior`` and B the radiance behind the surface:
+  with a dome, B = the dome straight through (along -v, no bending);
+  without one, B is estimated as the light falling on the surface itself (it is
+  shaded like a tinted Lambertian), so interiors without a dome do not turn glass
+  black.
+"""
+
+from __future__ import annotations
+
+import warp as wp
+
+from ..scene.device import FLAG_TRANSMISSIVE, SceneGPU
+from ..scene.environment import environment_radiance
+from .ambient import AmbientGPU, ambient_diffuse, ambient_specular
+from .brdf import COS_EPS, brdf_diffuse, brdf_specular, fresnel_dielectric
+from .lights import LightSample, light_sample
+
+
+@wp.func
+def light_response(ls: LightSample, n: wp.vec3, v: wp.vec3, kd: wp.vec3, f0: wp.vec3, roughness: float) -> wp.vec3:
+    """Unshadowed radiance toward ``v`` due to one light sample: the diffuse lobe times
+    the surface irradiance plus the specular lobe times ``e_normal * max(n.wi, 0)``."""
+    diffuse = wp.cw_mul(brdf_diffuse(n, v, ls.wi, kd, f0), ls.irradiance)
+    n_dot_l = wp.dot(n, ls.wi)
+    if n_dot_l <= 0.0:
+        return diffuse
+    return diffuse + wp.cw_mul(brdf_specular(n, v, ls.wi, f0, roughness), ls.e_normal) * n_dot_l
+
+
+@wp.func
+def direct_light(
+    scene: SceneGPU, light_index: int, p: wp.vec3, n: wp.vec3, v: wp.vec3, kd: wp.vec3, f0: wp.vec3, roughness: float
+) -> wp.vec3:
+    """Unshadowed contribution of light ``light_index`` at ``p`` toward ``v``."""
+    return light_response(light_sample(scene.lights[light_index], p, n), n, v, kd, f0, roughness)
+
+
+@wp.func
+def diffuse_albedo(scene: SceneGPU, n: wp.vec3, v: wp.vec3, albedo: wp.vec3, opacity: float, ior: float, flags: int) -> wp.vec3:
+    """The diffuse colour that lights and the dome see (``albedo`` for opaque materials;
+    see the module docstring for transmissive ones)."""
+    if (flags & FLAG_TRANSMISSIVE) == 0:
+        return albedo
+    o = wp.clamp(opacity, 0.0, 1.0)
+    if scene.environment.enabled != 0:
+        return albedo * o
+    f = fresnel_dielectric(wp.max(wp.dot(n, v), COS_EPS), ior)
+    return albedo * (o + (1.0 - o) * (1.0 - f))
+
+
+@wp.func
+def shade_surface(
+    scene: SceneGPU,
+    amb: AmbientGPU,
+    n: wp.vec3,
+    v: wp.vec3,
+    albedo: wp.vec3,
+    kd: wp.vec3,
+    f0: wp.vec3,
+    roughness: float,
+    emission: wp.vec3,
+    opacity: float,
+    ior: float,
+    flags: int,
+    direct: wp.vec3,
+) -> wp.vec3:
+    """Raster shading of one point: emission + the caller's (shadowed) ``direct`` sum +
+    the dome's diffuse and glossy light + the transmissive approximation."""
+    c = emission + direct
+    c += ambient_diffuse(scene, amb, n, v, kd, f0)
+    c += ambient_specular(scene, amb, n, v, f0, roughness)
+    if (flags & FLAG_TRANSMISSIVE) != 0 and scene.environment.enabled != 0:
+        o = wp.clamp(opacity, 0.0, 1.0)
+        f = fresnel_dielectric(wp.max(wp.dot(n, v), COS_EPS), ior)
+        c += wp.cw_mul(albedo, environment_radiance(scene, -v)) * ((1.0 - o) * (1.0 - f))
+    return c

@@ -1,0 +1,181 @@
+"""FXAA: Lottes' FXAA 3.11 "quality" edge anti-aliasing (``@wp.func``), after Rodriguez's
+well-known restatement of it.
+
+Runs on the tone-mapped 8-bit sRGB image (as FXAA does on a display buffer); luma is
+computed from the sRGB values (``0.299 R + 0.587 G + 0.114 B``).  Per pixel:
+
+1. Local contrast of the centre and its 4 neighbours; pixels whose luma range is below
+   ``max(EDGE_THRESHOLD_MIN, EDGE_THRESHOLD * max luma)`` are returned unchanged (so a
+   flat image is untouched, bit for bit).
+2. Edge orientation from the 3x3 neighbourhood's second differences; the side with the
+   steeper gradient is the other half of the edge.
+3. Search along the edge (bilinear luma on the edge boundary, 12 steps of 1, 1, 1, 1,
+   1, 1.5, 2, 2, 2, 2, 4, 8 pixels) until the luma departs from the edge's mean by a
+   quarter of the local gradient on both ends.
+4. The blend offset perpendicular to the edge is ``0.5 - distance to the nearer end /
+   edge length`` (only if that end's luma confirms the direction), or the sub-pixel
+   aliasing estimate ``SUBPIX * smoothstep(|lowpass - centre| / range)^2`` if larger;
+   the output is the bilinear colour at the centre moved by that offset.
+
+Settings: edge threshold 0.166 with a 0.0833 floor (FXAA 3.11's defaults) and
+``SUBPIX = 0.5`` (FXAA's "sharper" end instead of its 0.75 default): a 1-px line
+keeps about 80% of its encoded energy instead of about 69%.
+"""
+
+from __future__ import annotations
+
+import warp as wp
+
+EDGE_THRESHOLD = wp.constant(0.166)
+EDGE_THRESHOLD_MIN = wp.constant(0.0833)
+SUBPIX = wp.constant(0.5)
+SEARCH_STEPS = wp.constant(12)
+
+
+@wp.func
+def luma_srgb(c: wp.vec3) -> float:
+    """Luma of an sRGB-encoded colour (Rec. 601 weights, as FXAA)."""
+    return 0.299 * c[0] + 0.587 * c[1] + 0.114 * c[2]
+
+
+@wp.func
+def _texel(img: wp.array3d(dtype=wp.uint8), x: int, y: int) -> wp.vec3:
+    """Texel in [0, 1] with clamp-to-edge addressing."""
+    yy = wp.clamp(y, 0, img.shape[0] - 1)
+    xx = wp.clamp(x, 0, img.shape[1] - 1)
+    s = 1.0 / 255.0
+    return wp.vec3(float(img[yy, xx, 0]) * s, float(img[yy, xx, 1]) * s, float(img[yy, xx, 2]) * s)
+
+
+@wp.func
+def _bilinear(img: wp.array3d(dtype=wp.uint8), px: float, py: float) -> wp.vec3:
+    """Bilinear colour at continuous pixel coordinates (pixel centres at i + 0.5)."""
+    x = px - 0.5
+    y = py - 0.5
+    x0f = wp.floor(x)
+    y0f = wp.floor(y)
+    fx = x - x0f
+    fy = y - y0f
+    x0 = int(x0f)
+    y0 = int(y0f)
+    top = _texel(img, x0, y0) * (1.0 - fx) + _texel(img, x0 + 1, y0) * fx
+    bottom = _texel(img, x0, y0 + 1) * (1.0 - fx) + _texel(img, x0 + 1, y0 + 1) * fx
+    return top * (1.0 - fy) + bottom * fy
+
+
+@wp.func
+def _search_step(i: int) -> float:
+    """FXAA quality preset 39 step lengths (pixels) for search iteration i >= 1."""
+    if i < 5:
+        return 1.0
+    if i == 5:
+        return 1.5
+    if i < 10:
+        return 2.0
+    if i == 10:
+        return 4.0
+    return 8.0
+
+
+@wp.func
+def fxaa_pixel(img: wp.array3d(dtype=wp.uint8), x: int, y: int) -> wp.vec3:
+    """The anti-aliased colour (in [0, 1]) of pixel (x, y) of the 8-bit sRGB image ``img``."""
+    center = _texel(img, x, y)
+    lc = luma_srgb(center)
+    lu = luma_srgb(_texel(img, x, y - 1))
+    ld = luma_srgb(_texel(img, x, y + 1))
+    ll = luma_srgb(_texel(img, x - 1, y))
+    lr = luma_srgb(_texel(img, x + 1, y))
+    lmin = wp.min(lc, wp.min(wp.min(lu, ld), wp.min(ll, lr)))
+    lmax = wp.max(lc, wp.max(wp.max(lu, ld), wp.max(ll, lr)))
+    rng = lmax - lmin
+    if rng < wp.max(EDGE_THRESHOLD_MIN, lmax * EDGE_THRESHOLD):
+        return center
+
+    lul = luma_srgb(_texel(img, x - 1, y - 1))
+    lur = luma_srgb(_texel(img, x + 1, y - 1))
+    ldl = luma_srgb(_texel(img, x - 1, y + 1))
+    ldr = luma_srgb(_texel(img, x + 1, y + 1))
+    lud = lu + ld
+    llr = ll + lr
+    left_corners = lul + ldl
+    right_corners = lur + ldr
+    up_corners = lul + lur
+    down_corners = ldl + ldr
+    edge_h = wp.abs(-2.0 * ll + left_corners) + wp.abs(-2.0 * lc + lud) * 2.0 + wp.abs(-2.0 * lr + right_corners)
+    edge_v = wp.abs(-2.0 * lu + up_corners) + wp.abs(-2.0 * lc + llr) * 2.0 + wp.abs(-2.0 * ld + down_corners)
+    horizontal = edge_h >= edge_v
+
+    # neighbours across the edge: 1 at the negative side, 2 at the positive side
+    luma1 = ll
+    luma2 = lr
+    if horizontal:
+        luma1 = lu
+        luma2 = ld
+    g1 = luma1 - lc
+    g2 = luma2 - lc
+    gradient_scaled = 0.25 * wp.max(wp.abs(g1), wp.abs(g2))
+    step = 1.0
+    local_avg = 0.5 * (luma2 + lc)
+    if wp.abs(g1) >= wp.abs(g2):
+        step = -1.0
+        local_avg = 0.5 * (luma1 + lc)
+
+    cx = float(x) + 0.5
+    cy = float(y) + 0.5
+    # start on the boundary between the two sides; walk along the edge (ox, oy)
+    bx = cx
+    by = cy
+    ox = 0.0
+    oy = 1.0
+    if horizontal:
+        by = cy + 0.5 * step
+        ox = 1.0
+        oy = 0.0
+    else:
+        bx = cx + 0.5 * step
+    p1x = bx - ox
+    p1y = by - oy
+    p2x = bx + ox
+    p2y = by + oy
+    end1 = luma_srgb(_bilinear(img, p1x, p1y)) - local_avg
+    end2 = luma_srgb(_bilinear(img, p2x, p2y)) - local_avg
+    done1 = wp.abs(end1) >= gradient_scaled
+    done2 = wp.abs(end2) >= gradient_scaled
+    for i in range(1, SEARCH_STEPS):
+        if done1 and done2:
+            break
+        s = _search_step(i)
+        if not done1:
+            p1x -= ox * s
+            p1y -= oy * s
+            end1 = luma_srgb(_bilinear(img, p1x, p1y)) - local_avg
+            done1 = wp.abs(end1) >= gradient_scaled
+        if not done2:
+            p2x += ox * s
+            p2y += oy * s
+            end2 = luma_srgb(_bilinear(img, p2x, p2y)) - local_avg
+            done2 = wp.abs(end2) >= gradient_scaled
+
+    d1 = cy - p1y
+    d2 = p2y - cy
+    if horizontal:
+        d1 = cx - p1x
+        d2 = p2x - cx
+    nearer_end = end2
+    dist = d2
+    if d1 < d2:
+        nearer_end = end1
+        dist = d1
+    offset = 0.0
+    if (nearer_end < 0.0) != (lc < local_avg):
+        offset = 0.5 - dist / (d1 + d2)
+
+    low_pass = (2.0 * (lud + llr) + left_corners + right_corners) / 12.0
+    sub1 = wp.clamp(wp.abs(low_pass - lc) / rng, 0.0, 1.0)
+    sub2 = (-2.0 * sub1 + 3.0) * sub1 * sub1
+    offset = wp.max(offset, sub2 * sub2 * SUBPIX)
+
+    if horizontal:
+        return _bilinear(img, cx, cy + offset * step)
+    return _bilinear(img, cx + offset * step, cy)

@@ -1,0 +1,89 @@
+"""Colour conversions shared by the loader (texture decode) and the output stage.
+
+The sRGB transfer functions (IEC 61966-2-1) as host numpy functions, the kernels'
+exact 8-bit encoder (a table lookup, no ``pow``), and luminance weights.  Colours are linear everywhere inside the
+renderer; sRGB only appears in 8-bit images (textures in, PNGs out).
+
+Encode (OETF), linear ``x`` in [0, 1] -> sRGB ``s``:
+``s = 12.92 x`` for ``x <= 0.0031308``, else ``s = 1.055 x^(1/2.4) - 0.055``.
+Decode (EOTF), ``x = s / 12.92`` for ``s <= 0.04045``, else ``((s + 0.055) / 1.055)^2.4``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import warp as wp
+
+# Rec. 709 / sRGB luminance of linear RGB.
+LUMA_709 = (0.2126, 0.7152, 0.0722)
+
+
+def srgb_encode(linear: np.ndarray) -> np.ndarray:
+    """Linear values -> sRGB-encoded values (float, same shape); input clipped to [0, 1]."""
+    x = np.clip(np.asarray(linear, dtype=np.float64), 0.0, 1.0)
+    out = np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1.0 / 2.4) - 0.055)
+    return out.astype(np.float32)
+
+
+def srgb_decode(encoded: np.ndarray) -> np.ndarray:
+    """sRGB-encoded values in [0, 1] -> linear values (float32, same shape).
+
+    Accepts floats in [0, 1] or uint8/uint16 arrays (scaled by their maximum)."""
+    s = np.asarray(encoded)
+    if s.dtype == np.uint8:
+        s = s.astype(np.float64) / 255.0
+    elif s.dtype == np.uint16:
+        s = s.astype(np.float64) / 65535.0
+    s = np.clip(s.astype(np.float64), 0.0, 1.0)
+    out = np.where(s <= 0.04045, s / 12.92, np.power((s + 0.055) / 1.055, 2.4))
+    return out.astype(np.float32)
+
+
+def luminance(rgb: np.ndarray) -> np.ndarray:
+    """Rec. 709 luminance of linear RGB (..., 3) -> (...)."""
+    return np.asarray(rgb, dtype=np.float64)[..., :3] @ np.asarray(LUMA_709)
+
+
+SRGB_LUT_SIZE = 4096  # cells of 1/4096 < the smallest step between 8-bit codes (1 / (12.92 * 255))
+
+
+def srgb_thresholds() -> np.ndarray:
+    """(255,) float32 linear values where the 8-bit sRGB code steps up: code ``k + 1``
+    starts at ``srgb_decode((k + 0.5) / 255)``, i.e. exactly where
+    ``round(255 * srgb_encode(x))`` changes."""
+    return srgb_decode((np.arange(255, dtype=np.float64) + 0.5) / 255.0)
+
+
+@wp.struct
+class Srgb8Encoder:
+    """Tables for the kernels' exact 8-bit sRGB encoder (see ``srgb_quantize``)."""
+
+    thresholds: wp.array(dtype=float)
+    cell_code: wp.array(dtype=wp.int32)
+
+
+def make_srgb8_encoder(device: wp.context.Device | str) -> Srgb8Encoder:
+    """Upload the encoder tables: the 255 code thresholds and, for each of
+    ``SRGB_LUT_SIZE`` cells of [0, 1], the code at the cell's start."""
+    thresholds = srgb_thresholds()
+    starts = (np.arange(SRGB_LUT_SIZE) / SRGB_LUT_SIZE).astype(np.float32)
+    enc = Srgb8Encoder()
+    enc.thresholds = wp.array(thresholds, dtype=float, device=device)
+    enc.cell_code = wp.array(np.searchsorted(thresholds, starts, side="right").astype(np.int32), dtype=wp.int32, device=device)
+    return enc
+
+
+@wp.func
+def srgb_quantize(x: float, enc: Srgb8Encoder) -> int:
+    """The 8-bit sRGB code of linear ``x``, exactly ``round(255 * srgb_encode(x))``
+    without a ``pow``: the code at the start of x's table cell, plus one if x is past
+    the single step a cell can contain."""
+    if not (x > 0.0):
+        return 0
+    if x >= 1.0:
+        return 255
+    k = enc.cell_code[wp.min(int(x * float(SRGB_LUT_SIZE)), SRGB_LUT_SIZE - 1)]
+    if k < 255:
+        if x >= enc.thresholds[k]:
+            k += 1
+    return k

@@ -1,0 +1,41 @@
+"""Exposure: a fixed EV or automatic exposure from the log-average luminance.
+
+The exposed colour is ``color * 2**ev``.  Automatic exposure (Reinhard et al. 2002,
+"key value") picks ``ev = log2(key / Lavg)`` with ``Lavg = exp(mean(log(delta + Y)))``
+over the hit pixels (Y the Rec. 709 luminance of the linear colour, ``delta`` keeps
+black pixels finite), so the log-average lands on middle grey, ``key = 0.18``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .color import LUMA_709
+
+KEY_VALUE = 0.18
+LOG_DELTA = 1.0e-4
+EV_LIMIT = 24.0
+
+
+def log_average_luminance(color: np.ndarray, mask: np.ndarray | None = None) -> float | None:
+    """``exp(mean(log(delta + Y)))`` over the finite pixels selected by ``mask``
+    ((H, W) bool, None = every pixel with Y > 0); None when no pixel qualifies."""
+    c = np.asarray(color, dtype=np.float32)
+    y = c[..., 0] * np.float32(LUMA_709[0]) + c[..., 1] * np.float32(LUMA_709[1]) + c[..., 2] * np.float32(LUMA_709[2])
+    select = np.isfinite(y)
+    select &= mask.astype(bool) if mask is not None else y > 0.0
+    if not select.any():
+        return None
+    logs = np.log(np.float32(LOG_DELTA) + np.maximum(y[select], np.float32(0.0)))
+    return float(np.exp(np.mean(logs, dtype=np.float64)))
+
+
+def auto_exposure_ev(color: np.ndarray, mask: np.ndarray | None = None, key: float = KEY_VALUE) -> float:
+    """The EV that maps the log-average luminance of ``color`` (H, W, 3, linear) to
+    ``key``; 0 when no pixel qualifies.  Clamped to +-24 stops."""
+    lavg = log_average_luminance(color, mask)
+    if lavg is None or lavg <= 0.0:
+        return 0.0
+    return float(np.clip(math.log2(key / lavg), -EV_LIMIT, EV_LIMIT))

@@ -18,6 +18,7 @@ $(STAMP): pyproject.toml requirements.lock
 
 demo: $(STAMP)
 	$(VENV)/bin/warp-hybrid render scenes/cornell_glass.usda -o out/demo.png \
+		--mode hybrid --gaze trace:scenes/traces/demo_gaze.csv --window 0.25 \
 		--aov-dir out/aovs --stats-json out/stats.json
 
 test: $(STAMP)

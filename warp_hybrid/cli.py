@@ -12,8 +12,13 @@ import sys
 import time
 from collections.abc import Sequence
 
-from .errors import WarpHybridError
+import numpy as np
+
+from .errors import RenderSettingsError, WarpHybridError
+from .focus import SHAPES
 from .post.postprocess import TONEMAPS
+from .renderer import MODES
+from .scene.model import Scene
 
 
 def parse_size(text: str) -> tuple[int, int]:
@@ -37,6 +42,27 @@ def parse_exposure(text: str) -> float | None:
         raise argparse.ArgumentTypeError(f"exposure must be 'auto' or a number of stops, got {text!r}") from exc
 
 
+def resolve_gaze(text: str, scene: Scene) -> tuple[float, float]:
+    """The gaze point for a frame: ``X,Y`` as given, or a gaze source spec sampled at
+    the scene's time in seconds from the start of its time range."""
+    parts = text.split(",")
+    if ":" not in text and len(parts) == 2:
+        try:
+            x, y = float(parts[0]), float(parts[1])
+        except ValueError as exc:
+            raise RenderSettingsError(f"--gaze must be X,Y or a gaze source spec, got {text!r}") from exc
+        if not (np.isfinite(x) and np.isfinite(y)):
+            raise RenderSettingsError(f"--gaze must be finite, got {text!r}")
+        return x, y
+    from gaze.factory import open_source
+
+    start = scene.time_range[0] if scene.time_range else 0.0
+    seconds = (scene.time - start) / scene.time_codes_per_second
+    with open_source(text) as source:
+        sample = source.sample(seconds)
+    return float(sample.x), float(sample.y)
+
+
 def _add_render_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("render", help="render a scene to a PNG (and optionally AOVs and statistics)")
     p.add_argument("scene", help="USD file (.usd/.usda/.usdc/.usdz) or a mesh file trimesh reads")
@@ -48,6 +74,16 @@ def _add_render_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--aov-dir", default=None, help="write depth/position/normal/albedo/color .npy files here")
     p.add_argument("--stats-json", default=None, help="write per-stage timings and counts as JSON here")
     p.add_argument("--primary", choices=("raster", "raycast"), default="raster", help="primary visibility path")
+    p.add_argument("--mode", choices=MODES, default="hybrid",
+                   help="raster: deferred shading only; full: every pixel ray traced; hybrid (default): ray traced in the focus window")
+    p.add_argument("--gaze", default="0.5,0.5",
+                   help="where the viewer looks: X,Y normalised (origin top-left), or a gaze source spec "
+                        "(e.g. trace:PATH) sampled at the frame's time (default 0.5,0.5)")
+    p.add_argument("--window", type=float, default=0.25, help="focus window area as a fraction of the screen (0..1, default 0.25)")
+    p.add_argument("--window-shape", choices=SHAPES, default="circle", help="focus window shape (default circle)")
+    p.add_argument("--feather", type=float, default=16.0, help="blend band inside the window edge, pixels (default 16)")
+    p.add_argument("--max-depth", type=int, default=3, help="secondary bounces per pixel (default 3)")
+    p.add_argument("--shadow-samples", type=int, default=1, help="1: hard shadows; N: N samples over area/sphere lights")
     p.add_argument("--exposure", type=parse_exposure, default=None, help="'auto' (default) or stops (EV)")
     p.add_argument("--tonemap", choices=TONEMAPS, default="aces", help="tone mapping operator")
     p.add_argument("--no-aa", dest="antialias", action="store_false", help="turn the FXAA post pass off")
@@ -71,14 +107,21 @@ def _cmd_render(args: argparse.Namespace) -> int:
         width=args.size[0],
         height=args.size[1],
         device=args.device,
+        mode=args.mode,
         primary=args.primary,
+        window_fraction=args.window,
+        window_shape=args.window_shape,
+        feather_px=args.feather,
+        max_depth=args.max_depth,
+        shadow_samples=args.shadow_samples,
         exposure_ev=args.exposure,
         tonemap=args.tonemap,
         antialias=args.antialias,
         threads=args.threads,
     )
+    gaze = resolve_gaze(args.gaze, scene)
     with Renderer(scene, settings) as renderer:
-        frame = renderer.render(camera)
+        frame = renderer.render(camera, renderer.default_window(gaze))
     frame.stats["setup_ms"] = {"load": load_ms, **frame.stats["setup_ms"]}
     write_png(args.output, frame.image)
     if args.aov_dir:

@@ -16,6 +16,7 @@ from warp_hybrid.scene.environment import (
     environment_radiance,
     environment_uv,
     environment_uv_wp,
+    fast_atan2,
     sh_constant_coefficients,
     sh_eval,
     sh_irradiance_coefficients,
@@ -42,6 +43,12 @@ def env_kernel(
     radiance[i] = environment_radiance(scene, dirs[i])
     irradiance[i] = dome_irradiance(scene, amb, dirs[i])
     prefiltered[i] = prefiltered_radiance(scene, amb, dirs[i], roughness)
+
+
+@wp.kernel
+def atan2_kernel(y: wp.array(dtype=float), x: wp.array(dtype=float), out: wp.array(dtype=float)):
+    i = wp.tid()
+    out[i] = fast_atan2(y[i], x[i])
 
 
 def _dome_scene(device: str, pixels: np.ndarray | None, color=(1.0, 1.0, 1.0), world_to_light=None, scale=None, bias=None):
@@ -92,6 +99,24 @@ def test_latlong_convention():
     np.testing.assert_allclose(environment_direction(environment_uv(d)), d, atol=1e-9)
 
 
+def test_fast_atan2_is_float_accurate(device):
+    rng = np.random.default_rng(4)
+    angle = rng.uniform(-math.pi, math.pi, 200_000)
+    radius = np.exp(rng.uniform(-30.0, 30.0, angle.size))
+    special_y = [0.0, -0.0, 0.0, -0.0, 1.0, -1.0, 0.0, 0.0, 1e-30, -1e-30, 3.0, -3.0]
+    special_x = [0.0, 0.0, -0.0, -0.0, 0.0, -0.0, 1.0, -1.0, -1.0, -1.0, 3.0, -3.0]
+    y = np.concatenate([np.sin(angle) * radius, special_y]).astype(np.float32)
+    x = np.concatenate([np.cos(angle) * radius, special_x]).astype(np.float32)
+    out = wp.zeros(y.size, dtype=float, device=device)
+    wp.launch(atan2_kernel, dim=y.size, inputs=[wp.array(y, device=device), wp.array(x, device=device)], outputs=[out],
+              device=device)
+    got = out.numpy()
+    exact = np.arctan2(y.astype(np.float64), x.astype(np.float64))
+    ulp = np.spacing(np.abs(exact).astype(np.float32)).astype(np.float64)
+    assert (np.abs(got - exact) / ulp).max() <= 3.0  # libm's atan2f is within ~1.5 ulp
+    np.testing.assert_array_equal(np.signbit(got[-12:]), np.signbit(exact[-12:]))  # IEEE signed zeros and pi
+
+
 def test_latlong_kernel_matches_host_and_fetches_texels(device):
     h, w = 8, 16
     rng = np.random.default_rng(0)
@@ -103,6 +128,9 @@ def test_latlong_kernel_matches_host_and_fetches_texels(device):
     du = np.abs(res["uv"][:, 0] - uv_host[:, 0])
     assert np.minimum(du, 1.0 - du).max() < 1e-5
     np.testing.assert_allclose(res["uv"][:, 1], uv_host[:, 1], atol=1e-5)
+    # the lookup does not need unit directions
+    scaled = _eval(device, ds, dirs.reshape(-1, 3) * np.geomspace(1e-3, 1e3, h * w)[:, None])
+    np.testing.assert_allclose(scaled["uv"], res["uv"], atol=1e-6)
     # at texel centres the bilinear fetch returns the texel itself (row 0 = top)
     expected = (pixels[..., :3] * [1.0, 2.0, 1.0] + [0.0, 0.0, 0.25]) * [2.0, 1.0, 0.5]
     np.testing.assert_allclose(res["radiance"], expected.reshape(-1, 3), rtol=1e-4)

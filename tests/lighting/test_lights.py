@@ -165,6 +165,54 @@ def test_rect_light_matches_form_factor_quadrature(device, flip_winding):
     np.testing.assert_array_equal(behind["e_normal"], 0.0)
 
 
+def _rect_polygon_reference(p, n, center, u, v, direction) -> float:
+    """E / L from Lambert's polygon formula in float64: the rectangle clipped to the
+    horizon of (p, n) (Sutherland-Hodgman), sum_i theta_i (n . gamma_i) / 2."""
+    if np.dot(p - center, direction) <= 0.0:
+        return 0.0
+    corners = [center - u - v, center + u - v, center + u + v, center - u + v]
+    poly = []
+    for k in range(4):
+        a = corners[k] - p
+        b = corners[(k + 1) % 4] - p
+        ha, hb = a @ n, b @ n
+        if ha > 0.0:
+            poly.append(a)
+        if (ha > 0.0) != (hb > 0.0):
+            poly.append(a + (b - a) * (ha / (ha - hb)))
+    total = 0.0
+    for k in range(len(poly)):
+        a, b = poly[k], poly[(k + 1) % len(poly)]
+        c = np.cross(a, b)
+        lc = np.linalg.norm(c)
+        if lc > 0.0:
+            total += math.atan2(lc, a @ b) * (c @ n) / lc
+    if np.dot(np.cross(u, v), direction) > 0.0:
+        total = -total
+    return min(max(0.5 * total, 0.0), math.pi)
+
+
+def test_rect_light_matches_polygon_formula_everywhere(device):
+    # random points around a tilted rect and random normals: wholly above the horizon
+    # (the fast 4-lane path), crossing it (the clipped path), below it, behind the light
+    rng = np.random.default_rng(7)
+    center = np.array([0.2, 1.0, -0.3])
+    u = np.array([0.6, 0.1, 0.0])
+    v = np.array([0.0, -0.1, 0.45])
+    direction = np.cross(v, u) / np.linalg.norm(np.cross(v, u))
+    pts = center + rng.normal(size=(3000, 3)) * 1.5
+    nrm = rng.normal(size=(3000, 3))
+    nrm /= np.linalg.norm(nrm, axis=1, keepdims=True)
+    light = Light(LightKind.RECT, "/rect", (1.0, 1.0, 1.0), position=tuple(center), direction=tuple(direction),
+                  axis_u=tuple(u), axis_v=tuple(v))
+    got = _sample(device, light, pts, nrm)["irradiance"][:, 0]
+    ref = np.array([_rect_polygon_reference(p, n, center, u, v, direction) for p, n in zip(pts, nrm)])
+    clipped = [any(((center + su * u + sv * v - p) @ n > 0.0) != ((center - p) @ n > 0.0) for su in (-1, 1) for sv in (-1, 1))
+               for p, n in zip(pts, nrm)]
+    assert sum(clipped) > 300 and (ref > 0.0).sum() > 800  # both paths are exercised
+    np.testing.assert_allclose(got, ref, rtol=1e-4, atol=1e-5)
+
+
 def test_rect_light_far_field_and_normalize(device):
     u = np.array([0.3, 0.0, 0.0])
     v = np.array([0.0, 0.2, 0.0])

@@ -57,6 +57,25 @@ def test_exposure_tonemap_and_encode(device):
         _run(device, image, tonemap="filmic")
 
 
+def test_auto_exposure_on_the_device_takes_every_mask_form(device):
+    rng = np.random.default_rng(3)
+    image = rng.uniform(0.0, 4.0, size=(12, 20, 3)).astype(np.float32)
+    image[0, 0] = np.inf  # non-finite pixels never count
+    hit = rng.random((12, 20)) > 0.4
+    ids = np.where(hit, 7, -1).astype(np.int32)
+    expected = auto_exposure_ev(image, hit)
+    color = wp.array(image, dtype=wp.vec3, device=device)
+    with Launcher(device, threads=2) as launcher:
+        post = PostProcess(launcher)
+        for mask in (hit, wp.array(hit, dtype=wp.bool, device=device), wp.array(ids, dtype=wp.int32, device=device)):
+            assert post.auto_exposure(color, mask) == pytest.approx(expected, abs=1e-6)
+        assert post.auto_exposure(color, None) == pytest.approx(auto_exposure_ev(image), abs=1e-6)
+        with pytest.raises(ValueError, match="hit_mask"):
+            post.auto_exposure(color, hit[:, :10])
+        with pytest.raises(ValueError, match="hit_mask"):
+            post.auto_exposure(color, wp.zeros((12, 20), dtype=float, device=device))
+
+
 def _luma(img: np.ndarray) -> np.ndarray:
     return img.astype(np.float64) @ [0.299, 0.587, 0.114]
 

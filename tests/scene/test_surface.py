@@ -1,4 +1,5 @@
 """Shared surface functions: texture sampling (bilinear, wrap modes, v flip, scale/bias),
+mip chains and filtered sampling (levels, level of detail, ray differentials),
 surface_at (barycentric convention of wp.mesh_query_ray, normals, material) and
 opacity_at, checked against numpy references."""
 
@@ -10,8 +11,18 @@ import warp as wp
 
 from warp_hybrid.scene.builders import MeshInput, make_scene
 from warp_hybrid.scene.device import DeviceScene, SceneGPU
-from warp_hybrid.scene.model import Material, Scene, TextureBinding, TextureImage, Wrap
-from warp_hybrid.scene.surface import SurfaceHit, opacity_at, sample_texture, surface_at
+from warp_hybrid.scene.mipmaps import mip_chain, mip_level_count, mip_level_size
+from warp_hybrid.scene.model import Environment, Material, Scene, TextureBinding, TextureImage, Wrap
+from warp_hybrid.scene.surface import (
+    SurfaceHit,
+    opacity_at,
+    sample_texture,
+    sample_texture_lod,
+    surface_at,
+    surface_at_grad,
+    texture_lod,
+    uv_footprint,
+)
 
 
 @wp.kernel(enable_backward=False)
@@ -119,6 +130,19 @@ def test_sample_texture_matches_bilinear_reference(device: str, wrap_s: Wrap, wr
     wp.launch(_sample, dim=len(uv), inputs=[ds.gpu, 0, wp.array(uv, dtype=wp.vec2, device=device), out], device=device)
     ref = _ref_sample(img, uv, wrap_s, wrap_t, scale, bias)
     np.testing.assert_allclose(out.numpy(), ref, atol=2e-5)
+
+
+@pytest.mark.parametrize("wrap", list(Wrap))
+def test_non_finite_uv_reads_black(device: str, wrap: Wrap) -> None:
+    """A NaN uv (e.g. from a degenerate hit) reads a black texel (then scale and bias),
+    never memory outside the image."""
+    img = _image(np.random.default_rng(10)) + 1.0
+    bias = (0.25, 0.5, 0.75, 1.0)
+    ds = DeviceScene(_texture_scene(img, [TextureBinding(0, wrap, wrap, (1.0, 1.0, 1.0, 1.0), bias)]), device)
+    uv = np.array([[np.nan, 0.5], [0.5, np.nan], [np.nan, np.nan]], np.float32)
+    out = wp.zeros(len(uv), dtype=wp.vec4, device=device)
+    wp.launch(_sample, dim=len(uv), inputs=[ds.gpu, 0, wp.array(uv, dtype=wp.vec2, device=device), out], device=device)
+    np.testing.assert_array_equal(out.numpy(), np.tile(bias, (len(uv), 1)))
 
 
 def test_texel_centres_and_v_flip(device: str) -> None:
@@ -260,3 +284,245 @@ def test_textured_material_and_opacity(device: str) -> None:
         assert hits["opacity"][k] == pytest.approx(texel[3], abs=1e-5)
         assert opacity[k] == pytest.approx(texel[3], abs=1e-5)
     assert opacity[2] == pytest.approx(0.3)
+
+
+# --- mip chains and filtered sampling -------------------------------------------------
+
+
+@wp.kernel(enable_backward=False)
+def _sample_lod(
+    scene: SceneGPU, tex: int, uvs: wp.array(dtype=wp.vec2), lods: wp.array(dtype=float), out: wp.array(dtype=wp.vec4)
+):
+    i = wp.tid()
+    out[i] = sample_texture_lod(scene, tex, uvs[i], lods[i])
+
+
+@wp.kernel(enable_backward=False)
+def _lod(scene: SceneGPU, tex: int, footprints: wp.array(dtype=wp.vec4), out: wp.array(dtype=float)):
+    i = wp.tid()
+    out[i] = texture_lod(scene, tex, footprints[i])
+
+
+@wp.kernel(enable_backward=False)
+def _footprint(
+    scene: SceneGPU,
+    origin: wp.vec3,
+    dirs: wp.array(dtype=wp.vec3),
+    ddx: wp.vec3,
+    ddy: wp.vec3,
+    out: wp.array(dtype=wp.vec4),
+):
+    i = wp.tid()
+    out[i] = uv_footprint(scene, 0, origin, dirs[i], ddx, ddy)
+
+
+@wp.kernel(enable_backward=False)
+def _surface_grad(
+    scene: SceneGPU,
+    bary: wp.array(dtype=wp.vec2),
+    footprint: wp.vec4,
+    out: wp.array(dtype=SurfaceHit),
+    plain: wp.array(dtype=SurfaceHit),
+):
+    i = wp.tid()
+    d = wp.vec3(0.0, 0.0, -1.0)
+    out[i] = surface_at_grad(scene, 0, bary[i][0], bary[i][1], d, footprint)
+    plain[i] = surface_at(scene, 0, bary[i][0], bary[i][1], d)
+
+
+def _area_mean(img: np.ndarray, width: int, height: int) -> np.ndarray:
+    """float64 reference: each texel of a width x height image is the mean of ``img``
+    over the block it covers (partial texels weighted by the covered fraction)."""
+
+    def coverage(n: int, m: int) -> np.ndarray:
+        edges = np.arange(m + 1) * (n / m)
+        lo, hi = edges[:-1, None], edges[1:, None]
+        j = np.arange(n)[None, :]
+        return np.clip(np.minimum(hi, j + 1) - np.maximum(lo, j), 0.0, None) / (n / m)
+
+    h, w = img.shape[:2]
+    return np.einsum("rh,hwk,cw->rck", coverage(h, height), img.astype(np.float64), coverage(w, width))
+
+
+def test_mip_chain_sizes_and_box_filter() -> None:
+    """13 x 6 -> 6 x 3 -> 3 x 1 -> 1 x 1 (floor halving, odd sizes area-weighted); every
+    level is the exact area mean of level 0, so the mean colour is kept."""
+    img = np.random.default_rng(5).random((6, 13, 4)).astype(np.float32)
+    chain = mip_chain(img)
+    assert mip_level_count(13, 6) == 4
+    assert [level.shape[:2] for level in chain] == [(6, 13), (3, 6), (1, 3), (1, 1)]
+    assert [mip_level_size(13, 6, k)[::-1] for k in range(4)] == [(6, 13), (3, 6), (1, 3), (1, 1)]
+    np.testing.assert_array_equal(chain[0], img)
+    for level in chain[1:]:
+        want = _area_mean(img, level.shape[1], level.shape[0])
+        np.testing.assert_allclose(level, want, atol=1e-6)
+    np.testing.assert_allclose(chain[-1][0, 0], img.reshape(-1, 4).mean(axis=0), atol=1e-6)
+    # An even 2 x 2 block and an odd axis, by hand: 3 texels -> 1 weighs them equally.
+    two = np.arange(16, dtype=np.float32).reshape(2, 2, 4)
+    np.testing.assert_allclose(mip_chain(two)[1][0, 0], two.reshape(-1, 4).mean(axis=0))
+    row = np.array([[[0.0] * 4, [3.0] * 4, [9.0] * 4]], np.float32)
+    np.testing.assert_allclose(mip_chain(row)[1][0, 0], [4.0] * 4)
+
+
+def test_device_scene_packs_levels_of_material_textures(device: str) -> None:
+    """Material images get their chain right after level 0; an image only the dome light
+    uses stays a single level."""
+    rng = np.random.default_rng(6)
+    img = rng.random((6, 13, 4)).astype(np.float32)
+    dome = rng.random((4, 8, 4)).astype(np.float32)
+    scene = make_scene(
+        [_triangle_mesh()],
+        [Material("m", diffuse_texture=0)],
+        images=[TextureImage("<img>", img), TextureImage("<dome>", dome)],
+        textures=[TextureBinding(0), TextureBinding(1)],
+        environment=Environment("/dome", (1.0, 1.0, 1.0), texture=1),
+    )
+    ds = DeviceScene(scene, device)
+    tex = ds.textures.numpy()
+    texels = ds.texels.numpy()
+    assert list(tex["levels"]) == [4, 1]
+    assert list(tex["width"]) == [13, 8] and list(tex["height"]) == [6, 4]
+    offset = int(tex["offset"][0])
+    starts = tex["level_offsets"][0]
+    for k, level in enumerate(mip_chain(img)):
+        assert starts[k] == offset
+        n = level.shape[0] * level.shape[1]
+        np.testing.assert_array_equal(texels[offset : offset + n], level.reshape(-1, 4))
+        offset += n
+    assert list(starts[4:]) == [starts[3]] * (len(starts) - 4)
+    dome_at = int(tex["offset"][1])
+    assert offset <= dome_at or dome_at + 32 <= int(tex["offset"][0])
+    np.testing.assert_array_equal(texels[dome_at : dome_at + 32], dome.reshape(-1, 4))
+
+
+def _sample_at_lods(ds: DeviceScene, device: str, uv: np.ndarray, lods: np.ndarray) -> np.ndarray:
+    out = wp.zeros(len(uv), dtype=wp.vec4, device=device)
+    wp.launch(
+        _sample_lod,
+        dim=len(uv),
+        inputs=[
+            ds.gpu,
+            0,
+            wp.array(uv.astype(np.float32), dtype=wp.vec2, device=device),
+            wp.array(lods.astype(np.float32), dtype=float, device=device),
+            out,
+        ],
+        device=device,
+    )
+    return out.numpy()
+
+
+@pytest.mark.parametrize("wrap_s,wrap_t", WRAP_PAIRS)
+def test_sample_texture_lod_filters_between_levels(device: str, wrap_s: Wrap, wrap_t: Wrap) -> None:
+    """Integer lod L is bilinear in level L; a fraction blends L and L + 1 linearly
+    (trilinear); lod past the chain clamps to its last level."""
+    rng = np.random.default_rng(7)
+    img = rng.random((16, 24, 4)).astype(np.float32)
+    scale, bias = np.array([2.0, 1.0, 0.5, 1.0]), np.array([0.0, 0.1, 0.0, -0.5])
+    scene = make_scene(
+        [_triangle_mesh()],
+        [Material("m", diffuse_texture=0)],
+        images=[TextureImage("<img>", img)],
+        textures=[TextureBinding(0, wrap_s, wrap_t, tuple(scale), tuple(bias))],
+    )
+    ds = DeviceScene(scene, device)
+    chain = mip_chain(img)
+    uv = rng.uniform(-1.2, 2.3, (64, 2))
+    ref = [_ref_sample(level, uv, wrap_s, wrap_t, scale, bias) for level in chain]
+    for lod in (1.0, 2.0, 4.0, 7.5):
+        got = _sample_at_lods(ds, device, uv, np.full(len(uv), lod))
+        np.testing.assert_allclose(got, ref[min(int(lod), len(chain) - 1)], atol=2e-5, err_msg=f"lod {lod}")
+    for frac in (0.2, 0.5, 0.7):
+        got = _sample_at_lods(ds, device, uv, np.full(len(uv), 1.0 + frac))
+        np.testing.assert_allclose(got, (1.0 - frac) * ref[1] + frac * ref[2], atol=2e-5, err_msg=f"frac {frac}")
+
+
+def test_magnified_lookups_are_plain_bilinear(device: str) -> None:
+    """lod <= 0 (magnification) and a zero footprint give exactly the level-0 bilinear
+    result of sample_texture / surface_at."""
+    rng = np.random.default_rng(8)
+    img = rng.random((8, 8, 4)).astype(np.float32)
+    ds = DeviceScene(_texture_scene(img, [TextureBinding(0)]), device)
+    uv = rng.uniform(0.0, 1.0, (40, 2)).astype(np.float32)
+    plain = wp.zeros(len(uv), dtype=wp.vec4, device=device)
+    wp.launch(_sample, dim=len(uv), inputs=[ds.gpu, 0, wp.array(uv, dtype=wp.vec2, device=device), plain], device=device)
+    for lod in (-4.0, -0.5, 0.0):
+        np.testing.assert_array_equal(_sample_at_lods(ds, device, uv, np.full(len(uv), lod)), plain.numpy())
+    np.testing.assert_allclose(plain.numpy(), _ref_sample(img, uv, Wrap.REPEAT, Wrap.REPEAT, np.ones(4), np.zeros(4)), atol=2e-5)
+
+    textured = make_scene(
+        [_triangle_mesh()], [Material("m", diffuse_texture=0)], images=[TextureImage("<img>", img)], textures=[TextureBinding(0)]
+    )
+    ds = DeviceScene(textured, device)
+    bary = rng.uniform(0.0, 0.5, (20, 2)).astype(np.float32)
+    for fp in ((0.0, 0.0, 0.0, 0.0), (0.05, 0.0, 0.0, 0.05)):  # zero; 0.4 texels per pixel
+        out = wp.zeros(len(bary), dtype=SurfaceHit, device=device)
+        ref = wp.zeros(len(bary), dtype=SurfaceHit, device=device)
+        wp.launch(
+            _surface_grad,
+            dim=len(bary),
+            inputs=[ds.gpu, wp.array(bary, dtype=wp.vec2, device=device), wp.vec4(*fp), out, ref],
+            device=device,
+        )
+        np.testing.assert_array_equal(out.numpy()["albedo"], ref.numpy()["albedo"])
+
+
+def test_texture_lod_is_log2_of_the_longer_pixel_axis(device: str) -> None:
+    img = np.zeros((32, 64, 4), np.float32)
+    ds = DeviceScene(_texture_scene(img, [TextureBinding(0)]), device)
+    w, h = 64.0, 32.0
+    fps = np.array(
+        [
+            [0.0, 0.0, 0.0, 0.0],
+            [0.5 / w, 0.0, 0.0, 0.9 / h],  # magnified: below one texel per pixel
+            [8.0 / w, 0.0, 0.0, 2.0 / h],  # 8 texels along x
+            [3.0 / w, 4.0 / h, 0.0, -1.0 / h],  # |(3, 4)| = 5 texels
+            [1.0 / w, 0.0, 10.0 / w, 6.0 / h],  # the y axis is longer: sqrt(136)
+        ],
+        np.float32,
+    )
+    out = wp.zeros(len(fps), dtype=float, device=device)
+    wp.launch(_lod, dim=len(fps), inputs=[ds.gpu, 0, wp.array(fps, dtype=wp.vec4, device=device), out], device=device)
+    got = out.numpy()
+    assert got[0] <= 0.0 and got[1] <= 0.0
+    np.testing.assert_allclose(got[2:], np.log2([8.0, 5.0, np.sqrt(136.0)]), atol=0.006)
+
+
+def test_uv_footprint_is_the_derivative_of_the_plane_hit_uv(device: str) -> None:
+    """Ray differentials against float64 central differences of the ray/plane hit's uv."""
+    rng = np.random.default_rng(9)
+    pts = np.array([[-1.0, -0.5, -3.0], [1.5, -0.2, -4.0], [0.1, 1.2, -3.5]], np.float32)
+    uvs = np.array([[0.1, 0.1], [2.0, 0.3], [0.4, 1.7]], np.float32)
+    scene = make_scene([MeshInput(pts, np.array([[0, 1, 2]], np.int32), 0, None, uvs)], [Material("m")])
+    ds = DeviceScene(scene, device)
+    origin = np.array([0.2, 0.1, 0.5])
+    dirs = pts.mean(axis=0) + rng.uniform(-0.3, 0.3, (16, 3)) - origin
+    ddx, ddy = np.array([0.01, 0.0, 0.002]), np.array([0.0, -0.01, 0.001])
+    out = wp.zeros(len(dirs), dtype=wp.vec4, device=device)
+    wp.launch(
+        _footprint,
+        dim=len(dirs),
+        inputs=[
+            ds.gpu,
+            wp.vec3(*origin),
+            wp.array(dirs.astype(np.float32), dtype=wp.vec3, device=device),
+            wp.vec3(*ddx),
+            wp.vec3(*ddy),
+            out,
+        ],
+        device=device,
+    )
+    p = pts.astype(np.float64)
+    n = np.cross(p[1] - p[0], p[2] - p[0])
+    m = np.linalg.inv(np.stack([p[1] - p[0], p[2] - p[0], n], axis=1))
+
+    def hit_uv(d: np.ndarray) -> np.ndarray:
+        q = origin + d * (np.dot(p[0] - origin, n) / np.dot(d, n))
+        b1, b2, _ = m @ (q - p[0])
+        return uvs[0] + b1 * (uvs[1] - uvs[0]) + b2 * (uvs[2] - uvs[0])
+
+    eps = 1e-3
+    for k, d in enumerate(dirs.astype(np.float32).astype(np.float64)):
+        gx = (hit_uv(d + eps * ddx) - hit_uv(d - eps * ddx)) / (2 * eps)
+        gy = (hit_uv(d + eps * ddy) - hit_uv(d - eps * ddy)) / (2 * eps)
+        np.testing.assert_allclose(out.numpy()[k], np.concatenate([gx, gy]), rtol=2e-3, atol=1e-6)

@@ -56,11 +56,14 @@ class AmbientGPU:
     ``sh``: 9 irradiance coefficients (dome-local frame).  ``mip_*``: levels 1..levels
     of the radiance mip chain (colour, scale and bias applied), flat vec3 texels from
     the top row; ``base_width`` is the width of level 0 (the dome texture).
-    ``brdf_lut``: (roughness, n.v) -> (A, B) of ``specular_albedo_table``."""
+    ``brdf_lut``: (roughness, n.v) -> (A, B) of ``specular_albedo_table``.
+    ``sh_bands``: 1 when only the constant band is non-zero (a constant dome; the
+    others are then skipped, which changes no bit of the sum), else 3."""
 
     enabled: int
     brdf_lut: wp.array2d(dtype=wp.vec2)
     sh: wp.array(dtype=wp.vec3)
+    sh_bands: int
     mip_texels: wp.array(dtype=wp.vec3)
     mip_offset: wp.array(dtype=wp.int32)
     mip_width: wp.array(dtype=wp.int32)
@@ -157,6 +160,7 @@ class EnvironmentLighting:
         g.enabled = 1 if env is not None else 0
         g.brdf_lut = wp.array(specular_albedo_table(), dtype=wp.vec2, device=dev)
         g.sh = wp.array(sh, dtype=wp.vec3, device=dev)
+        g.sh_bands = 1 if not np.any(sh[1:]) else 3
         offsets = np.cumsum([0] + [m.shape[0] * m.shape[1] for m in mips])
         flat = np.concatenate([m.reshape(-1, 3) for m in mips]) if mips else np.zeros((1, 3), np.float32)
         g.mip_texels = wp.array(np.ascontiguousarray(flat, dtype=np.float32), dtype=wp.vec3, device=dev)
@@ -199,9 +203,12 @@ class EnvironmentLighting:
         return cached
 
 
-@wp.func
+@wp.func(inline=True)
 def sh_irradiance(amb: AmbientGPU, d: wp.vec3) -> wp.vec3:
     """Irradiance E(d) from the SH coefficients at a unit dome-local direction."""
+    if amb.sh_bands == 1:
+        c = amb.sh[0] * SH_C0
+        return wp.vec3(wp.max(c[0], 0.0), wp.max(c[1], 0.0), wp.max(c[2], 0.0))
     x = d[0]
     y = d[1]
     z = d[2]
@@ -213,15 +220,17 @@ def sh_irradiance(amb: AmbientGPU, d: wp.vec3) -> wp.vec3:
     return wp.vec3(wp.max(e[0], 0.0), wp.max(e[1], 0.0), wp.max(e[2], 0.0))
 
 
-@wp.func
+@wp.func(inline=True)
 def dome_irradiance(scene: SceneGPU, amb: AmbientGPU, n: wp.vec3) -> wp.vec3:
     """Irradiance from the dome on a surface with world normal ``n`` (no occlusion)."""
     if amb.enabled == 0:
         return wp.vec3(0.0, 0.0, 0.0)
+    if amb.sh_bands == 1:
+        return sh_irradiance(amb, n)  # direction-free
     return sh_irradiance(amb, wp.normalize(scene.environment.world_to_light * n))
 
 
-@wp.func
+@wp.func(inline=True)
 def _mip_fetch(amb: AmbientGPU, level: int, uv: wp.vec2) -> wp.vec3:
     """Bilinear fetch from mip ``level`` (1-based) at lat-long ``uv`` (wrap u, clamp v)."""
     k = level - 1
@@ -248,7 +257,7 @@ def _mip_fetch(amb: AmbientGPU, level: int, uv: wp.vec2) -> wp.vec3:
     return top * (1.0 - fy) + bottom * fy
 
 
-@wp.func
+@wp.func(inline=True)
 def _level_radiance(scene: SceneGPU, amb: AmbientGPU, level: int, uv: wp.vec2) -> wp.vec3:
     """Radiance at integer mip ``level`` (0 = the sharp dome texture)."""
     if level == 0:
@@ -256,7 +265,7 @@ def _level_radiance(scene: SceneGPU, amb: AmbientGPU, level: int, uv: wp.vec2) -
     return _mip_fetch(amb, level, uv)
 
 
-@wp.func
+@wp.func(inline=True)
 def prefiltered_radiance(scene: SceneGPU, amb: AmbientGPU, dir_world: wp.vec3, roughness: float) -> wp.vec3:
     """Dome radiance around ``dir_world`` blurred to the width of a GGX lobe of this
     roughness (see the module docstring)."""
@@ -265,7 +274,10 @@ def prefiltered_radiance(scene: SceneGPU, amb: AmbientGPU, dir_world: wp.vec3, r
     if amb.levels == 0:
         return environment_radiance(scene, dir_world)
     alpha = roughness_to_alpha(roughness)
-    lod = wp.log2(wp.max(alpha * float(amb.base_width) / TWO_PI, 1.0))
+    width = alpha * float(amb.base_width) / TWO_PI
+    lod = float(0.0)
+    if width > 1.0:
+        lod = wp.log2(width)
     d = scene.environment.world_to_light * dir_world
     uv = environment_uv_wp(d)
     top = float(amb.levels)
@@ -280,7 +292,7 @@ def prefiltered_radiance(scene: SceneGPU, amb: AmbientGPU, dir_world: wp.vec3, r
     return lower * (1.0 - t) + _level_radiance(scene, amb, l0 + 1, uv) * t
 
 
-@wp.func
+@wp.func(inline=True)
 def env_brdf(amb: AmbientGPU, f0: wp.vec3, roughness: float, n_dot_v: float) -> wp.vec3:
     """Split-sum specular reflectance ``f0 A + f90 B`` under uniform light, bilinear in
     the (roughness, n.v) table."""
@@ -298,7 +310,7 @@ def env_brdf(amb: AmbientGPU, f0: wp.vec3, roughness: float, n_dot_v: float) -> 
     return f0 * ab[0] + wp.vec3(f90, f90, f90) * ab[1]
 
 
-@wp.func
+@wp.func(inline=True)
 def ambient_diffuse(scene: SceneGPU, amb: AmbientGPU, n: wp.vec3, v: wp.vec3, kd: wp.vec3, f0: wp.vec3) -> wp.vec3:
     """Diffuse light from the dome: ``kd / pi * E(n) * (1 - F(n.v))`` (the diffuse
     lobe of ``brdf.brdf_diffuse`` integrated against the dome's irradiance)."""
@@ -308,7 +320,7 @@ def ambient_diffuse(scene: SceneGPU, amb: AmbientGPU, n: wp.vec3, v: wp.vec3, kd
     return wp.cw_mul(wp.cw_mul(kd * INV_PI, dome_irradiance(scene, amb, n)), keep)
 
 
-@wp.func
+@wp.func(inline=True)
 def ambient_specular(scene: SceneGPU, amb: AmbientGPU, n: wp.vec3, v: wp.vec3, f0: wp.vec3, roughness: float) -> wp.vec3:
     """Glossy reflection of the dome: prefiltered radiance along the mirror direction
     times the split-sum specular reflectance."""

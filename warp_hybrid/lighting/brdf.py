@@ -41,26 +41,26 @@ INV_PI = wp.constant(1.0 / math.pi)
 COS_EPS = wp.constant(1.0e-4)
 
 
-@wp.func
+@wp.func(inline=True)
 def luma709(c: wp.vec3) -> float:
     """Rec. 709 luminance of a linear colour."""
     return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
 
 
-@wp.func
+@wp.func(inline=True)
 def roughness_to_alpha(roughness: float) -> float:
     """GGX alpha from UsdPreviewSurface roughness: ``max(roughness^2, ALPHA_MIN)``."""
     r = wp.clamp(roughness, 0.0, 1.0)
     return wp.max(r * r, ALPHA_MIN)
 
 
-@wp.func
+@wp.func(inline=True)
 def fresnel_f90(f0: wp.vec3) -> float:
     """Grazing reflectance: 1 for any real specular colour, fading to 0 below f0 = 2%."""
     return wp.clamp(50.0 * luma709(f0), 0.0, 1.0)
 
 
-@wp.func
+@wp.func(inline=True)
 def fresnel_schlick(f0: wp.vec3, cos_theta: float) -> wp.vec3:
     """Schlick's Fresnel ``f0 + (f90 - f0) (1 - cos)^5`` (``f90`` from ``fresnel_f90``)."""
     c = wp.clamp(1.0 - cos_theta, 0.0, 1.0)
@@ -70,7 +70,7 @@ def fresnel_schlick(f0: wp.vec3, cos_theta: float) -> wp.vec3:
     return f0 + (wp.vec3(f90, f90, f90) - f0) * w
 
 
-@wp.func
+@wp.func(inline=True)
 def fresnel_dielectric(cos_i: float, eta: float) -> float:
     """Exact unpolarised Fresnel reflectance of a smooth dielectric interface.
 
@@ -89,7 +89,7 @@ def fresnel_dielectric(cos_i: float, eta: float) -> float:
     return 0.5 * (rs * rs + rp * rp)
 
 
-@wp.func
+@wp.func(inline=True)
 def ggx_d(n_dot_h: float, alpha: float) -> float:
     """GGX normal distribution D(h) (1/sr)."""
     a2 = alpha * alpha
@@ -97,7 +97,7 @@ def ggx_d(n_dot_h: float, alpha: float) -> float:
     return a2 / (PI * d * d)
 
 
-@wp.func
+@wp.func(inline=True)
 def smith_visibility(n_dot_v: float, n_dot_l: float, alpha: float) -> float:
     """Height-correlated Smith G2 / (4 n.l n.v) for GGX."""
     a2 = alpha * alpha
@@ -106,7 +106,7 @@ def smith_visibility(n_dot_v: float, n_dot_l: float, alpha: float) -> float:
     return 0.5 / wp.max(gv + gl, 1.0e-12)
 
 
-@wp.func
+@wp.func(inline=True)
 def half_vector(v: wp.vec3, l: wp.vec3) -> wp.vec3:
     """Unit half vector between ``v`` and ``l`` (``v`` when they are opposite)."""
     h = v + l
@@ -116,14 +116,14 @@ def half_vector(v: wp.vec3, l: wp.vec3) -> wp.vec3:
     return h / len_h
 
 
-@wp.func
+@wp.func(inline=True)
 def diffuse_view_weight(f0: wp.vec3, n_dot_v: float) -> wp.vec3:
     """``1 - F(n.v)``: the diffuse lobe's directional albedo per unit albedo (what a
     uniform environment gives a Lambertian of this specular colour)."""
     return wp.vec3(1.0, 1.0, 1.0) - fresnel_schlick(f0, n_dot_v)
 
 
-@wp.func
+@wp.func(inline=True)
 def brdf_diffuse(n: wp.vec3, v: wp.vec3, l: wp.vec3, albedo: wp.vec3, f0: wp.vec3) -> wp.vec3:
     """Diffuse lobe ``albedo / pi (1 - F(n.l)) (1 - F(n.v)) / (1 - F_avg)`` (1/sr); no
     cosine, no horizon test (``n.l`` is clamped to [0, 1])."""
@@ -138,7 +138,7 @@ def brdf_diffuse(n: wp.vec3, v: wp.vec3, l: wp.vec3, albedo: wp.vec3, f0: wp.vec
     return wp.cw_mul(albedo * INV_PI, w)
 
 
-@wp.func
+@wp.func(inline=True)
 def brdf_specular(n: wp.vec3, v: wp.vec3, l: wp.vec3, f0: wp.vec3, roughness: float) -> wp.vec3:
     """Specular lobe ``D Vis F`` (1/sr); zero when ``l`` is below the horizon."""
     n_dot_l = wp.dot(n, l)
@@ -152,7 +152,7 @@ def brdf_specular(n: wp.vec3, v: wp.vec3, l: wp.vec3, f0: wp.vec3, roughness: fl
     return fresnel_schlick(f0, wp.dot(v, h)) * (d * vis)
 
 
-@wp.func
+@wp.func(inline=True)
 def brdf_eval(n: wp.vec3, v: wp.vec3, l: wp.vec3, albedo: wp.vec3, f0: wp.vec3, roughness: float) -> wp.vec3:
     """The whole BRDF f(v, l) (1/sr); zero when ``l`` is below the horizon."""
     if wp.dot(n, l) <= 0.0:

@@ -20,15 +20,70 @@ from ..timing import StageTimer
 from .ambient import AmbientGPU, EnvironmentLighting
 from .shading import diffuse_albedo, direct_light, shade_surface
 
-wp.set_module_options({"enable_backward": False})
+# FMA contraction across statements (what CUDA does by default): ~10-20% faster on the
+# CPU; results change by rounding only.
+wp.set_module_options(
+    {"enable_backward": False, "cpu_compiler_flags": f"{wp.config.cpu_compiler_flags or '-march=native'} -ffp-contract=fast"}
+)
 
 
-@wp.func
-def camera_ray_direction(cam: CameraGPU, x: int, y: int) -> wp.vec3:
-    """Unit world direction of the camera ray through the centre of pixel (x, y)."""
+@wp.func(inline=True)
+def camera_ray(cam: CameraGPU, x: int, y: int) -> wp.vec3:
+    """World direction of the camera ray through the centre of pixel (x, y), not
+    normalised (its component along ``forward`` is 1)."""
     ndc_x = 2.0 * (float(x) + 0.5) / float(cam.width) - 1.0
     ndc_y = 1.0 - 2.0 * (float(y) + 0.5) / float(cam.height)
-    return wp.normalize(cam.forward + cam.right * (ndc_x * cam.tan_x) + cam.up * (ndc_y * cam.tan_y))
+    return cam.forward + cam.right * (ndc_x * cam.tan_x) + cam.up * (ndc_y * cam.tan_y)
+
+
+@wp.func(inline=True)
+def camera_ray_direction(cam: CameraGPU, x: int, y: int) -> wp.vec3:
+    """Unit world direction of the camera ray through the centre of pixel (x, y)."""
+    return wp.normalize(camera_ray(cam, x, y))
+
+
+@wp.func(inline=True)
+def shade_pixel(
+    scene: SceneGPU,
+    amb: AmbientGPU,
+    cam: CameraGPU,
+    position: wp.array2d(dtype=wp.vec3),
+    normal: wp.array2d(dtype=wp.vec3),
+    albedo: wp.array2d(dtype=wp.vec3),
+    specular: wp.array2d(dtype=wp.vec3),
+    emission: wp.array2d(dtype=wp.vec3),
+    optics: wp.array2d(dtype=wp.vec4),
+    material_id: wp.array2d(dtype=wp.int32),
+    triangle_id: wp.array2d(dtype=wp.int32),
+    transmittance: wp.array3d(dtype=wp.vec3),
+    x: int,
+    y: int,
+    shadowed: bool,
+) -> wp.vec3:
+    """Outgoing radiance of pixel (x, y)."""
+    if triangle_id[y, x] < 0:
+        return environment_radiance(scene, camera_ray(cam, x, y))  # any length will do
+    p = position[y, x]
+    n = normal[y, x]
+    v = wp.normalize(cam.origin - p)
+    opt = optics[y, x]
+    ior = opt[1]
+    opacity = opt[2]
+    roughness = opt[3]
+    flags = int(0)
+    mid = material_id[y, x]
+    if mid >= 0:
+        flags = scene.materials[mid].flags
+    base = albedo[y, x]
+    f0 = specular[y, x]
+    kd = diffuse_albedo(scene, n, v, base, opacity, ior, flags)
+    direct = wp.vec3(0.0, 0.0, 0.0)
+    for i in range(scene.light_count):
+        c = direct_light(scene, i, p, n, v, kd, f0, roughness)
+        if shadowed:
+            c = wp.cw_mul(c, transmittance[y, x, i])
+        direct += c
+    return shade_surface(scene, amb, n, v, base, kd, f0, roughness, emission[y, x], opacity, ior, flags, direct)
 
 
 def _make_shade_kernel(shadowed: bool) -> wp.Kernel:
@@ -53,34 +108,12 @@ def _make_shade_kernel(shadowed: bool) -> wp.Kernel:
         row0: int,
         row_step: int,
     ):
-        r, x = wp.tid()
-        y = row0 + r * row_step
-        if triangle_id[y, x] < 0:
-            color_out[y, x] = environment_radiance(scene, camera_ray_direction(cam, x, y))
-            return
-        p = position[y, x]
-        n = normal[y, x]
-        v = wp.normalize(cam.origin - p)
-        opt = optics[y, x]
-        ior = opt[1]
-        opacity = opt[2]
-        roughness = opt[3]
-        flags = int(0)
-        mid = material_id[y, x]
-        if mid >= 0:
-            flags = scene.materials[mid].flags
-        base = albedo[y, x]
-        f0 = specular[y, x]
-        kd = diffuse_albedo(scene, n, v, base, opacity, ior, flags)
-        direct = wp.vec3(0.0, 0.0, 0.0)
-        for i in range(scene.light_count):
-            c = direct_light(scene, i, p, n, v, kd, f0, roughness)
-            if wp.static(shadowed):
-                c = wp.cw_mul(c, transmittance[y, x, i])
-            direct += c
-        color_out[y, x] = shade_surface(
-            scene, amb, n, v, base, kd, f0, roughness, emission[y, x], opacity, ior, flags, direct
-        )
+        y = row0 + wp.tid() * row_step
+        for x in range(color_out.shape[1]):
+            color_out[y, x] = shade_pixel(
+                scene, amb, cam, position, normal, albedo, specular, emission, optics, material_id, triangle_id,
+                transmittance, x, y, wp.static(shadowed),
+            )
 
     return shade_pixels
 
@@ -134,10 +167,9 @@ class DeferredLighting:
             transmittance = light_transmittance
         ambient = EnvironmentLighting.for_scene(scene)
         with timer.stage("lighting"):
-            self.launcher.launch_rows(
+            self.launcher.launch_items(
                 kernel,
                 h,
-                w,
                 [
                     scene.gpu,
                     ambient.gpu,

@@ -69,11 +69,9 @@ class LightSample:
     irradiance: wp.vec3
 
 
-@wp.func
-def cone_factor(light: LightGPU, wi: wp.vec3) -> float:
-    """ShapingAPI cone falloff for the ray leaving the light toward the point (-wi)."""
-    if light.cos_cone <= -1.0 + 1.0e-6:
-        return 1.0
+@wp.func(inline=False)
+def _cone_falloff(light: LightGPU, wi: wp.vec3) -> float:
+    """The ShapingAPI smoothstep for a light with a cone (the rare path of ``cone_factor``)."""
     cos_theta = -wp.dot(light.direction, wi)
     outer = wp.acos(wp.clamp(light.cos_cone, -1.0, 1.0))
     cos_inner = wp.cos(outer * (1.0 - wp.clamp(light.cone_softness, 0.0, 1.0)))
@@ -85,16 +83,24 @@ def cone_factor(light: LightGPU, wi: wp.vec3) -> float:
     return t * t * (3.0 - 2.0 * t)
 
 
-@wp.func
+@wp.func(inline=True)
+def cone_factor(light: LightGPU, wi: wp.vec3) -> float:
+    """ShapingAPI cone falloff for the ray leaving the light toward the point (-wi)."""
+    if light.cos_cone <= -1.0 + 1.0e-6:
+        return 1.0
+    return _cone_falloff(light, wi)
+
+
+@wp.func(inline=True)
 def subtended_angle(s: float, c: float) -> float:
     """atan2(s, c) for s >= 0, in [0, pi]: a degree-11 odd minimax polynomial for atan
     on [0, 1] (the Cg reference coefficients; absolute error < 1e-5 rad, relative error
-    < 5e-6 near 0), several times cheaper than libm's atan2 on the CPU."""
+    < 5e-6 near 0), several times cheaper than libm's atan2 on the CPU.  Branch-free
+    (selects only), so the compiler can evaluate several of them in SIMD lanes."""
     ac = wp.abs(c)
-    hi = wp.max(s, ac)
-    if hi <= 0.0:
-        return 0.0
-    t = wp.min(s, ac) / hi
+    steep = s > ac
+    hi = wp.where(steep, s, ac)
+    t = wp.where(steep, ac, s) / hi
     t2 = t * t
     p = -0.013480470
     p = p * t2 + 0.057477314
@@ -103,37 +109,34 @@ def subtended_angle(s: float, c: float) -> float:
     p = p * t2 - 0.332994597
     p = p * t2 + 0.999995630
     r = p * t
-    if s > ac:
-        r = 1.570796327 - r
-    if c < 0.0:
-        r = 3.141592654 - r
-    return r
+    r = wp.where(steep, 1.570796327 - r, r)
+    r = wp.where(c < 0.0, 3.141592654 - r, r)
+    return wp.where(hi > 0.0, r, 0.0)
 
 
-@wp.func
+@wp.func(inline=True)
 def _edge_term(a: wp.vec3, b: wp.vec3, n: wp.vec3) -> float:
     """theta * (n . gamma) for the edge a -> b seen from the origin (a, b any length).
 
     The subtended angle is atan2(|a x b|, a.b), accurate for tiny edges."""
     c = wp.cross(a, b)
-    lc = wp.length(c)
-    if lc <= 0.0:
-        return 0.0
-    return subtended_angle(lc, wp.dot(a, b)) * wp.dot(c, n) / lc
+    lc = wp.sqrt(wp.dot(c, c))
+    return wp.where(lc > 0.0, subtended_angle(lc, wp.dot(a, b)) * wp.dot(c, n) / lc, 0.0)
 
 
-@wp.func
+@wp.func(inline=True)
 def _horizon_point(a: wp.vec3, b: wp.vec3, ha: float, hb: float) -> wp.vec3:
     """The point of segment a-b on the horizon plane (heights ha > 0 >= hb or reverse)."""
     t = ha / (ha - hb)
     return a + (b - a) * t
 
 
-@wp.func
+@wp.func(inline=False)
 def quad_edge_sum(q0: wp.vec3, q1: wp.vec3, q2: wp.vec3, q3: wp.vec3, n: wp.vec3) -> float:
     """sum_i theta_i (n . gamma_i) over the quad q0..q3 (relative to the shading point)
     clipped to the half space n.x >= 0 (Sutherland-Hodgman on a convex polygon: at
-    most one exit and one entry, joined by an edge along the horizon)."""
+    most one exit and one entry, joined by an edge along the horizon).  The general
+    (and, for a rect light, the rare horizon-crossing) path, kept out of line."""
     total = float(0.0)
     exit_pt = wp.vec3(0.0, 0.0, 0.0)
     entry_pt = wp.vec3(0.0, 0.0, 0.0)
@@ -169,27 +172,59 @@ def quad_edge_sum(q0: wp.vec3, q1: wp.vec3, q2: wp.vec3, q3: wp.vec3, n: wp.vec3
     return total
 
 
-@wp.func
+@wp.func(inline=True)
+def _rect_edge(c: wp.vec3, a_dot_b: float, n: wp.vec3) -> float:
+    """``_edge_term`` of an edge given ``c`` = a x b and a.b (both at any common positive
+    scale, which leaves the term unchanged)."""
+    lc = wp.sqrt(wp.dot(c, c))
+    return wp.where(lc > 0.0, subtended_angle(lc, a_dot_b) * wp.dot(c, n) / lc, 0.0)
+
+
+@wp.func(inline=True)
+def rect_edge_sum(d: wp.vec3, u: wp.vec3, v: wp.vec3, n: wp.vec3) -> float:
+    """``quad_edge_sum`` over the rectangle with centre ``d`` (relative to the shading
+    point) and half axes ``u``, ``v`` (corners d - u - v, d + u - v, d + u + v, d - u + v).
+
+    Wholly above the horizon (the common case) the edges' cross and dot products factor
+    through d x u and d x v: with z = u x v the edge a_i -> a_i+1 has
+    a x b = 2 (z + d x u), 2 (z + d x v), 2 (z - d x u), 2 (z - d x v) and
+    a.b = |d - v|^2 - |u|^2, |d + u|^2 - |v|^2, |d + v|^2 - |u|^2, |d - u|^2 - |v|^2
+    (used at half scale); four straight-line, branch-free edge terms."""
+    dn = wp.dot(d, n)
+    un = wp.dot(u, n)
+    vn = wp.dot(v, n)
+    if dn - un - vn > 0.0 and dn + un - vn > 0.0 and dn + un + vn > 0.0 and dn - un + vn > 0.0:
+        z = wp.cross(u, v)
+        xu = wp.cross(d, u)
+        xv = wp.cross(d, v)
+        half_dd = 0.5 * wp.dot(d, d)
+        half_k = 0.5 * (wp.dot(v, v) - wp.dot(u, u))
+        du = wp.dot(d, u)
+        dv = wp.dot(d, v)
+        total = _rect_edge(z + xu, half_dd - dv + half_k, n)
+        total += _rect_edge(z + xv, half_dd + du - half_k, n)
+        total += _rect_edge(z - xu, half_dd + dv + half_k, n)
+        total += _rect_edge(z - xv, half_dd - du - half_k, n)
+        return total
+    return quad_edge_sum(d - u - v, d + u - v, d + u + v, d - u + v, n)
+
+
+@wp.func(inline=True)
 def rect_irradiance_factor(p: wp.vec3, n: wp.vec3, light: LightGPU) -> float:
     """E / L for a one-sided rect light at ``p`` with normal ``n`` (pi times the form
     factor of the horizon-clipped rectangle; dimensionless, in [0, pi])."""
-    c = light.position
-    if wp.dot(p - c, light.direction) <= 0.0:
+    d = light.position - p
+    if wp.dot(d, light.direction) >= 0.0:
         return 0.0
     u = light.axis_u
     v = light.axis_v
-    q0 = c - u - v - p
-    q1 = c + u - v - p
-    q2 = c + u + v - p
-    q3 = c - u + v - p
-    winding = wp.dot(wp.cross(u, v), light.direction)
-    s = quad_edge_sum(q0, q1, q2, q3, n)
-    if winding > 0.0:
+    s = rect_edge_sum(d, u, v, n)
+    if wp.dot(wp.cross(u, v), light.direction) > 0.0:
         s = -s
     return wp.clamp(0.5 * s, 0.0, PI)
 
 
-@wp.func
+@wp.func(inline=True)
 def light_sample(light: LightGPU, p: wp.vec3, n: wp.vec3) -> LightSample:
     """Direction, distance and irradiance terms of ``light`` at point ``p`` (normal ``n``)."""
     out = LightSample()

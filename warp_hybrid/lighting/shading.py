@@ -42,7 +42,7 @@ from .brdf import COS_EPS, brdf_diffuse, brdf_specular, fresnel_dielectric
 from .lights import LightSample, light_sample
 
 
-@wp.func
+@wp.func(inline=True)
 def light_response(ls: LightSample, n: wp.vec3, v: wp.vec3, kd: wp.vec3, f0: wp.vec3, roughness: float) -> wp.vec3:
     """Unshadowed radiance toward ``v`` due to one light sample: the diffuse lobe times
     the surface irradiance plus the specular lobe times ``e_normal * max(n.wi, 0)``."""
@@ -53,7 +53,7 @@ def light_response(ls: LightSample, n: wp.vec3, v: wp.vec3, kd: wp.vec3, f0: wp.
     return diffuse + wp.cw_mul(brdf_specular(n, v, ls.wi, f0, roughness), ls.e_normal) * n_dot_l
 
 
-@wp.func
+@wp.func(inline=True)
 def direct_light(
     scene: SceneGPU, light_index: int, p: wp.vec3, n: wp.vec3, v: wp.vec3, kd: wp.vec3, f0: wp.vec3, roughness: float
 ) -> wp.vec3:
@@ -61,7 +61,7 @@ def direct_light(
     return light_response(light_sample(scene.lights[light_index], p, n), n, v, kd, f0, roughness)
 
 
-@wp.func
+@wp.func(inline=True)
 def diffuse_albedo(scene: SceneGPU, n: wp.vec3, v: wp.vec3, albedo: wp.vec3, opacity: float, ior: float, flags: int) -> wp.vec3:
     """The diffuse colour that lights and the dome see (``albedo`` for opaque materials;
     see the module docstring for transmissive ones)."""
@@ -74,7 +74,7 @@ def diffuse_albedo(scene: SceneGPU, n: wp.vec3, v: wp.vec3, albedo: wp.vec3, opa
     return albedo * (o + (1.0 - o) * (1.0 - f))
 
 
-@wp.func
+@wp.func(inline=True)
 def shade_surface(
     scene: SceneGPU,
     amb: AmbientGPU,

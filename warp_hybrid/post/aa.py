@@ -2,7 +2,9 @@
 well-known restatement of it.
 
 Runs on the tone-mapped 8-bit sRGB image (as FXAA does on a display buffer); luma is
-computed from the sRGB values (``0.299 R + 0.587 G + 0.114 B``).  Per pixel:
+computed from the sRGB values (``0.299 R + 0.587 G + 0.114 B``).  The tone-mapping pass
+writes that luma of every pixel beside the 8-bit image (``luma_of_codes``), so the
+edge tests and the search below read one float per texel.  Per pixel:
 
 1. Local contrast of the centre and its 4 neighbours; pixels whose luma range is below
    ``max(EDGE_THRESHOLD_MIN, EDGE_THRESHOLD * max luma)`` are returned unchanged (so a
@@ -30,26 +32,40 @@ EDGE_THRESHOLD = wp.constant(0.166)
 EDGE_THRESHOLD_MIN = wp.constant(0.0833)
 SUBPIX = wp.constant(0.5)
 SEARCH_STEPS = wp.constant(12)
+INV_255 = wp.constant(1.0 / 255.0)
 
 
-@wp.func
+@wp.func(inline=True)
 def luma_srgb(c: wp.vec3) -> float:
     """Luma of an sRGB-encoded colour (Rec. 601 weights, as FXAA)."""
     return 0.299 * c[0] + 0.587 * c[1] + 0.114 * c[2]
 
 
-@wp.func
+@wp.func(inline=True)
+def luma_of_codes(r: int, g: int, b: int) -> float:
+    """Luma of the 8-bit sRGB codes (r, g, b), each scaled to [0, 1]."""
+    return luma_srgb(wp.vec3(float(r) * INV_255, float(g) * INV_255, float(b) * INV_255))
+
+
+@wp.func(inline=True)
 def _texel(img: wp.array3d(dtype=wp.uint8), x: int, y: int) -> wp.vec3:
     """Texel in [0, 1] with clamp-to-edge addressing."""
     yy = wp.clamp(y, 0, img.shape[0] - 1)
     xx = wp.clamp(x, 0, img.shape[1] - 1)
-    s = 1.0 / 255.0
-    return wp.vec3(float(img[yy, xx, 0]) * s, float(img[yy, xx, 1]) * s, float(img[yy, xx, 2]) * s)
+    return wp.vec3(float(img[yy, xx, 0]) * INV_255, float(img[yy, xx, 1]) * INV_255, float(img[yy, xx, 2]) * INV_255)
 
 
-@wp.func
+@wp.func(inline=True)
+def _luma(luma: wp.array2d(dtype=float), x: int, y: int) -> float:
+    """Luma with clamp-to-edge addressing."""
+    return luma[wp.clamp(y, 0, luma.shape[0] - 1), wp.clamp(x, 0, luma.shape[1] - 1)]
+
+
+@wp.func(inline=True)
 def _bilinear(img: wp.array3d(dtype=wp.uint8), px: float, py: float) -> wp.vec3:
-    """Bilinear colour at continuous pixel coordinates (pixel centres at i + 0.5)."""
+    """Bilinear colour at continuous pixel coordinates (pixel centres at i + 0.5).  Taps
+    whose weight is exactly 0 are skipped (the blend offset moves along one axis only),
+    which leaves the result unchanged bit for bit."""
     x = px - 0.5
     y = py - 0.5
     x0f = wp.floor(x)
@@ -58,12 +74,18 @@ def _bilinear(img: wp.array3d(dtype=wp.uint8), px: float, py: float) -> wp.vec3:
     fy = y - y0f
     x0 = int(x0f)
     y0 = int(y0f)
-    top = _texel(img, x0, y0) * (1.0 - fx) + _texel(img, x0 + 1, y0) * fx
-    bottom = _texel(img, x0, y0 + 1) * (1.0 - fx) + _texel(img, x0 + 1, y0 + 1) * fx
-    return top * (1.0 - fy) + bottom * fy
+    top = _texel(img, x0, y0)
+    if fx > 0.0:
+        top = top * (1.0 - fx) + _texel(img, x0 + 1, y0) * fx
+    if fy > 0.0:
+        bottom = _texel(img, x0, y0 + 1)
+        if fx > 0.0:
+            bottom = bottom * (1.0 - fx) + _texel(img, x0 + 1, y0 + 1) * fx
+        return top * (1.0 - fy) + bottom * fy
+    return top
 
 
-@wp.func
+@wp.func(inline=True)
 def _search_step(i: int) -> float:
     """FXAA quality preset 39 step lengths (pixels) for search iteration i >= 1."""
     if i < 5:
@@ -78,24 +100,13 @@ def _search_step(i: int) -> float:
 
 
 @wp.func
-def fxaa_pixel(img: wp.array3d(dtype=wp.uint8), x: int, y: int) -> wp.vec3:
-    """The anti-aliased colour (in [0, 1]) of pixel (x, y) of the 8-bit sRGB image ``img``."""
-    center = _texel(img, x, y)
-    lc = luma_srgb(center)
-    lu = luma_srgb(_texel(img, x, y - 1))
-    ld = luma_srgb(_texel(img, x, y + 1))
-    ll = luma_srgb(_texel(img, x - 1, y))
-    lr = luma_srgb(_texel(img, x + 1, y))
-    lmin = wp.min(lc, wp.min(wp.min(lu, ld), wp.min(ll, lr)))
-    lmax = wp.max(lc, wp.max(wp.max(lu, ld), wp.max(ll, lr)))
-    rng = lmax - lmin
-    if rng < wp.max(EDGE_THRESHOLD_MIN, lmax * EDGE_THRESHOLD):
-        return center
-
-    lul = luma_srgb(_texel(img, x - 1, y - 1))
-    lur = luma_srgb(_texel(img, x + 1, y - 1))
-    ldl = luma_srgb(_texel(img, x - 1, y + 1))
-    ldr = luma_srgb(_texel(img, x + 1, y + 1))
+def fxaa_edge(img: wp.array3d(dtype=wp.uint8), luma: wp.array2d(dtype=float), x: int, y: int, lc: float, lu: float,
+              ld: float, ll: float, lr: float, rng: float) -> wp.vec3:
+    """Steps 2-4 for a pixel that passed the contrast test: the blended colour in [0, 1]."""
+    lul = _luma(luma, x - 1, y - 1)
+    lur = _luma(luma, x + 1, y - 1)
+    ldl = _luma(luma, x - 1, y + 1)
+    ldr = _luma(luma, x + 1, y + 1)
     lud = lu + ld
     llr = ll + lr
     left_corners = lul + ldl
@@ -134,28 +145,28 @@ def fxaa_pixel(img: wp.array3d(dtype=wp.uint8), x: int, y: int) -> wp.vec3:
         oy = 0.0
     else:
         bx = cx + 0.5 * step
+    # walk each end outward until the luma departs from the edge's mean (the two
+    # ends are independent: each stops at its own first departure)
     p1x = bx - ox
     p1y = by - oy
+    end1 = luma_srgb(_bilinear(img, p1x, p1y)) - local_avg
+    i = int(1)
+    while i < SEARCH_STEPS and wp.abs(end1) < gradient_scaled:
+        s = _search_step(i)
+        p1x -= ox * s
+        p1y -= oy * s
+        end1 = luma_srgb(_bilinear(img, p1x, p1y)) - local_avg
+        i += 1
     p2x = bx + ox
     p2y = by + oy
-    end1 = luma_srgb(_bilinear(img, p1x, p1y)) - local_avg
     end2 = luma_srgb(_bilinear(img, p2x, p2y)) - local_avg
-    done1 = wp.abs(end1) >= gradient_scaled
-    done2 = wp.abs(end2) >= gradient_scaled
-    for i in range(1, SEARCH_STEPS):
-        if done1 and done2:
-            break
+    i = int(1)
+    while i < SEARCH_STEPS and wp.abs(end2) < gradient_scaled:
         s = _search_step(i)
-        if not done1:
-            p1x -= ox * s
-            p1y -= oy * s
-            end1 = luma_srgb(_bilinear(img, p1x, p1y)) - local_avg
-            done1 = wp.abs(end1) >= gradient_scaled
-        if not done2:
-            p2x += ox * s
-            p2y += oy * s
-            end2 = luma_srgb(_bilinear(img, p2x, p2y)) - local_avg
-            done2 = wp.abs(end2) >= gradient_scaled
+        p2x += ox * s
+        p2y += oy * s
+        end2 = luma_srgb(_bilinear(img, p2x, p2y)) - local_avg
+        i += 1
 
     d1 = cy - p1y
     d2 = p2y - cy
@@ -179,3 +190,24 @@ def fxaa_pixel(img: wp.array3d(dtype=wp.uint8), x: int, y: int) -> wp.vec3:
     if horizontal:
         return _bilinear(img, cx, cy + offset * step)
     return _bilinear(img, cx + offset * step, cy)
+
+
+@wp.func(inline=True)
+def fxaa_pixel(img: wp.array3d(dtype=wp.uint8), luma: wp.array2d(dtype=float), out: wp.array3d(dtype=wp.uint8), x: int, y: int):
+    """Write the anti-aliased 8-bit colour of pixel (x, y) of ``img`` (luma beside it in
+    ``luma``) into ``out``."""
+    lc = luma[y, x]
+    lu = _luma(luma, x, y - 1)
+    ld = _luma(luma, x, y + 1)
+    ll = _luma(luma, x - 1, y)
+    lr = _luma(luma, x + 1, y)
+    lmin = wp.min(lc, wp.min(wp.min(lu, ld), wp.min(ll, lr)))
+    lmax = wp.max(lc, wp.max(wp.max(lu, ld), wp.max(ll, lr)))
+    rng = lmax - lmin
+    if rng < wp.max(EDGE_THRESHOLD_MIN, lmax * EDGE_THRESHOLD):
+        for k in range(3):
+            out[y, x, k] = img[y, x, k]
+    else:
+        c = fxaa_edge(img, luma, x, y, lc, lu, ld, ll, lr, rng)
+        for k in range(3):
+            out[y, x, k] = wp.uint8(int(wp.clamp(c[k], 0.0, 1.0) * 255.0 + 0.5))

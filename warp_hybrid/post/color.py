@@ -56,34 +56,29 @@ def srgb_thresholds() -> np.ndarray:
 
 @wp.struct
 class Srgb8Encoder:
-    """Tables for the kernels' exact 8-bit sRGB encoder (see ``srgb_quantize``)."""
+    """The table of the kernels' exact 8-bit sRGB encoder (see ``srgb_quantize``): for
+    each of ``SRGB_LUT_SIZE`` cells of [0, 1], plus one for x = 1, the code at the
+    cell's start and the threshold of the next code (+inf after 255)."""
 
-    thresholds: wp.array(dtype=float)
-    cell_code: wp.array(dtype=wp.int32)
+    cells: wp.array(dtype=wp.vec2)
 
 
 def make_srgb8_encoder(device: wp.context.Device | str) -> Srgb8Encoder:
-    """Upload the encoder tables: the 255 code thresholds and, for each of
-    ``SRGB_LUT_SIZE`` cells of [0, 1], the code at the cell's start."""
-    thresholds = srgb_thresholds()
-    starts = (np.arange(SRGB_LUT_SIZE) / SRGB_LUT_SIZE).astype(np.float32)
+    """Upload the encoder table (see ``Srgb8Encoder``)."""
+    thresholds = np.append(srgb_thresholds(), np.float32(np.inf))
+    starts = (np.arange(SRGB_LUT_SIZE + 1) / SRGB_LUT_SIZE).astype(np.float32)
+    codes = np.searchsorted(thresholds[:-1], starts, side="right")
     enc = Srgb8Encoder()
-    enc.thresholds = wp.array(thresholds, dtype=float, device=device)
-    enc.cell_code = wp.array(np.searchsorted(thresholds, starts, side="right").astype(np.int32), dtype=wp.int32, device=device)
+    enc.cells = wp.array(np.stack([codes.astype(np.float32), thresholds[codes]], axis=-1), dtype=wp.vec2, device=device)
     return enc
 
 
-@wp.func
+@wp.func(inline=True)
 def srgb_quantize(x: float, enc: Srgb8Encoder) -> int:
     """The 8-bit sRGB code of linear ``x``, exactly ``round(255 * srgb_encode(x))``
-    without a ``pow``: the code at the start of x's table cell, plus one if x is past
-    the single step a cell can contain."""
-    if not (x > 0.0):
-        return 0
-    if x >= 1.0:
-        return 255
-    k = enc.cell_code[wp.min(int(x * float(SRGB_LUT_SIZE)), SRGB_LUT_SIZE - 1)]
-    if k < 255:
-        if x >= enc.thresholds[k]:
-            k += 1
-    return k
+    without a ``pow`` or a branch: clamp to [0, 1] (NaN -> 0), take the code at the
+    start of x's table cell, plus one if x is past the single step a cell can contain
+    (cells are narrower than any step; the +inf threshold stops code 255)."""
+    xc = wp.clamp(x, 0.0, 1.0)
+    cell = enc.cells[int(xc * float(SRGB_LUT_SIZE))]
+    return int(cell[0]) + wp.where(xc >= cell[1], 1, 0)

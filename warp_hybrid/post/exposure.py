@@ -4,6 +4,10 @@ The exposed colour is ``color * 2**ev``.  Automatic exposure (Reinhard et al. 20
 "key value") picks ``ev = log2(key / Lavg)`` with ``Lavg = exp(mean(log(delta + Y)))``
 over the hit pixels (Y the Rec. 709 luminance of the linear colour, ``delta`` keeps
 black pixels finite), so the log-average lands on middle grey, ``key = 0.18``.
+
+The output stage sums the logs on the device (``kernels.LOG_LUMINANCE_KERNELS``, per
+row in float64) and finishes with ``ev_from_log_sum``; the host functions here compute
+the same from numpy arrays.
 """
 
 from __future__ import annotations
@@ -32,10 +36,20 @@ def log_average_luminance(color: np.ndarray, mask: np.ndarray | None = None) -> 
     return float(np.exp(np.mean(logs, dtype=np.float64)))
 
 
-def auto_exposure_ev(color: np.ndarray, mask: np.ndarray | None = None, key: float = KEY_VALUE) -> float:
-    """The EV that maps the log-average luminance of ``color`` (H, W, 3, linear) to
-    ``key``; 0 when no pixel qualifies.  Clamped to +-24 stops."""
-    lavg = log_average_luminance(color, mask)
+def ev_from_log_average(lavg: float | None, key: float = KEY_VALUE) -> float:
+    """The EV that maps the log-average luminance ``lavg`` to ``key``; 0 for None (no
+    pixel qualified).  Clamped to +-24 stops."""
     if lavg is None or lavg <= 0.0:
         return 0.0
     return float(np.clip(math.log2(key / lavg), -EV_LIMIT, EV_LIMIT))
+
+
+def ev_from_log_sum(log_sum: float, count: int, key: float = KEY_VALUE) -> float:
+    """``ev_from_log_average`` from the sum and the number of the pixels' logs."""
+    return ev_from_log_average(math.exp(log_sum / count) if count > 0 else None, key)
+
+
+def auto_exposure_ev(color: np.ndarray, mask: np.ndarray | None = None, key: float = KEY_VALUE) -> float:
+    """The EV that maps the log-average luminance of ``color`` (H, W, 3, linear) to
+    ``key``; 0 when no pixel qualifies.  Clamped to +-24 stops."""
+    return ev_from_log_average(log_average_luminance(color, mask), key)

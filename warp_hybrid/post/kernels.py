@@ -1,47 +1,112 @@
-"""The post-processing kernels (one Warp module): exposure + tone mapping + 8-bit sRGB
-encode, and FXAA on the 8-bit image.  One tone-mapping kernel per operator, generated
-from one closure."""
+"""The post-processing kernels (one Warp module): the log-luminance sums of automatic
+exposure, exposure + tone mapping + 8-bit sRGB encode (+ the luma FXAA reads), and
+FXAA on the 8-bit image.  Kernels process whole rows (the launcher's items are rows:
+``row0 + tid * row_step``), so per-launch-item overhead and argument copies are paid
+once per row.  Variants come from closures, not copies.
 
-from __future__ import annotations
+No ``from __future__ import annotations`` here: the closures' kernel signatures use
+local types, which Warp resolves from evaluated annotations."""
 
 import warp as wp
 
-from .aa import fxaa_pixel
-from .color import Srgb8Encoder, srgb_quantize
+from .aa import fxaa_pixel, luma_of_codes
+from .color import LUMA_709, Srgb8Encoder, srgb_quantize
+from .exposure import LOG_DELTA
 from .tonemap import OPERATORS
 
 wp.set_module_options({"enable_backward": False})
 
+LOG_DELTA_WP = wp.constant(LOG_DELTA)
+LUMA_R = wp.constant(LUMA_709[0])
+LUMA_G = wp.constant(LUMA_709[1])
+LUMA_B = wp.constant(LUMA_709[2])
 
-def _make_tonemap_kernel(operator: wp.Function) -> wp.Kernel:
-    """Exposure, ``operator``, then the exact 8-bit sRGB code per channel."""
+MASK_NONE = "none"
+MASK_BOOL = "bool"
+MASK_ID = "id"
+
+
+def _make_log_luminance_kernel(mask_kind: str) -> wp.Kernel:
+    """Per row: the sum (float64) and count of ``log(delta + max(Y, 0))`` over the
+    pixels with a finite Rec. 709 luminance Y that the mask selects: ``mask_kind``
+    "none" = Y > 0, "bool" = mask true, "id" = mask >= 0 (an id buffer, -1 = miss)."""
+    mask_dtype = wp.int32 if mask_kind == MASK_ID else wp.bool
 
     @wp.kernel
-    def tonemap_pixels(
+    def log_luminance_rows(
+        color: wp.array2d(dtype=wp.vec3),
+        mask: wp.array2d(dtype=mask_dtype),
+        row_sum: wp.array(dtype=wp.float64),
+        row_count: wp.array(dtype=wp.int32),
+        row0: int,
+        row_step: int,
+    ):
+        y = row0 + wp.tid() * row_step
+        total = wp.float64(0.0)
+        count = int(0)
+        for x in range(color.shape[1]):
+            c = color[y, x]
+            lum = c[0] * LUMA_R + c[1] * LUMA_G + c[2] * LUMA_B
+            take = wp.abs(lum) <= 3.4028234663852886e38  # finite (an inline test; wp.isfinite is a call)
+            if wp.static(mask_kind == MASK_NONE):
+                take = take and lum > 0.0
+            elif wp.static(mask_kind == MASK_BOOL):
+                take = take and mask[y, x]
+            else:
+                take = take and mask[y, x] >= 0
+            if take:
+                total += wp.float64(wp.log(LOG_DELTA_WP + wp.max(lum, 0.0)))
+                count += 1
+        row_sum[y] = total
+        row_count[y] = count
+
+    return log_luminance_rows
+
+
+LOG_LUMINANCE_KERNELS = {kind: _make_log_luminance_kernel(kind) for kind in (MASK_NONE, MASK_BOOL, MASK_ID)}
+
+
+def _make_tonemap_kernel(operator: wp.Function, with_luma: bool) -> wp.Kernel:
+    """Exposure, ``operator``, then the exact 8-bit sRGB code per channel; with
+    ``with_luma`` also the FXAA luma of the codes."""
+
+    @wp.kernel
+    def tonemap_rows(
         color: wp.array2d(dtype=wp.vec3),
         scale: float,
         encoder: Srgb8Encoder,
         out: wp.array3d(dtype=wp.uint8),
+        luma: wp.array2d(dtype=float),
         row0: int,
         row_step: int,
     ):
-        r, x = wp.tid()
-        y = row0 + r * row_step
-        c = wp.static(operator)(color[y, x] * scale)
-        for k in range(3):
-            out[y, x, k] = wp.uint8(srgb_quantize(c[k], encoder))
+        y = row0 + wp.tid() * row_step
+        for x in range(color.shape[1]):
+            c = wp.static(operator)(color[y, x] * scale)
+            r = srgb_quantize(c[0], encoder)
+            g = srgb_quantize(c[1], encoder)
+            b = srgb_quantize(c[2], encoder)
+            out[y, x, 0] = wp.uint8(r)
+            out[y, x, 1] = wp.uint8(g)
+            out[y, x, 2] = wp.uint8(b)
+            if wp.static(with_luma):
+                luma[y, x] = luma_of_codes(r, g, b)
 
-    return tonemap_pixels
+    return tonemap_rows
 
 
-TONEMAP_KERNELS = {name: _make_tonemap_kernel(op) for name, op in OPERATORS.items()}
+TONEMAP_KERNELS = {(name, with_luma): _make_tonemap_kernel(op, with_luma) for name, op in OPERATORS.items() for with_luma in (False, True)}
 
 
 @wp.kernel
-def fxaa_pixels(ldr: wp.array3d(dtype=wp.uint8), out: wp.array3d(dtype=wp.uint8), row0: int, row_step: int):
-    """FXAA over the 8-bit sRGB image ``ldr`` into ``out``."""
-    r, x = wp.tid()
-    y = row0 + r * row_step
-    c = fxaa_pixel(ldr, x, y)
-    for k in range(3):
-        out[y, x, k] = wp.uint8(int(wp.clamp(c[k], 0.0, 1.0) * 255.0 + 0.5))
+def fxaa_rows(
+    ldr: wp.array3d(dtype=wp.uint8),
+    luma: wp.array2d(dtype=float),
+    out: wp.array3d(dtype=wp.uint8),
+    row0: int,
+    row_step: int,
+):
+    """FXAA over the 8-bit sRGB image ``ldr`` (its luma in ``luma``) into ``out``."""
+    y = row0 + wp.tid() * row_step
+    for x in range(ldr.shape[1]):
+        fxaa_pixel(ldr, luma, out, x, y)

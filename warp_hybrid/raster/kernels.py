@@ -1,11 +1,15 @@
 """Every Warp kernel of the primary-visibility stage (one compile unit).
 
-Three passes fill a ``GBuffer``:
+Four passes fill a ``GBuffer``:
 
-* ``visibility_kernel`` (one thread per triangle): transform to camera space, clip
+* ``camera_points_kernel`` (one thread per vertex): every point in camera space and,
+  in front of the near plane, projected to the screen, so the triangles sharing a
+  vertex reuse it (and see bit-identical corners).
+* ``visibility_kernel`` (one thread per triangle): trivial frustum rejects, clip
   against the near plane (and a far-off guard band so fixed-point coordinates never
   overflow), project, snap to a 1/256-pixel fixed-point grid and walk, row by row,
-  the pixel centres of the triangle's span (bounding box narrowed per row) with
+  the pixel centres of the triangle's span (bounding box, narrowed per row when it is
+  NARROW_PX pixels or wider) with
   exact integer edge functions and a top-left fill rule, so shared edges leave no
   crack and no pixel is covered twice.  Each covered pixel gets one ``atomic_min`` of
   a 64-bit key (for the overdraw diagnostic, one count instead): the float32 bits
@@ -14,10 +18,15 @@ Three passes fill a ``GBuffer``:
   Alpha cut-outs are tested per fragment and skipped below their threshold.
 * ``resolve_kernel`` (one thread per pixel): takes the smallest key over the
   visibility slices, intersects the pixel's camera ray with the winning triangle
-  (exact depth and barycentrics) and evaluates the surface.
+  (exact depth and barycentrics) and evaluates the surface, textures filtered over
+  the pixel's footprint (``pixel_footprint``: ray differentials of the camera ray on
+  the triangle's plane, which picks the mip level).
 * ``raycast_kernel`` (one thread per pixel): the reference path, ``wp.mesh_query_ray``
   through each pixel centre from the near plane to the far plane, stepping past
-  cut-away hits.
+  cut-away hits; same surface evaluation and footprint, so both paths agree.
+
+Both per-pixel passes write through ``GBufferRows`` (flat views of the G-buffer);
+``GBufferArrays`` is the 2-D struct the later stages' kernels read.
 
 No back-face culling: the G-buffer must match the ray cast, which sees both sides.
 Screen space: x right, y down, pixel (i, j) has its centre at (i + 0.5, j + 0.5).
@@ -28,7 +37,7 @@ from __future__ import annotations
 import warp as wp
 
 from ..scene.device import FLAG_CUTOUT, CameraGPU, SceneGPU
-from ..scene.surface import is_cut_away, surface_at
+from ..scene.surface import is_cut_away, surface_at_grad, uv_footprint
 
 wp.set_module_options({"enable_backward": False})
 
@@ -43,6 +52,9 @@ MODE_COUNT = wp.constant(1)
 SUBPIXEL = wp.constant(wp.int64(256))
 HALF_SUBPIXEL = wp.constant(wp.int64(128))
 GUARD_PX = wp.constant(262144.0)
+# Triangles whose pixel bounding box is narrower than this test every pixel in it
+# rather than narrowing each row's span first.
+NARROW_PX = wp.constant(4)
 # Ray-cast path: at most this many cut-away hits are stepped past per pixel.
 MAX_CUTOUT_LAYERS = wp.constant(32)
 
@@ -52,7 +64,8 @@ _vec9 = wp.types.vector(length=9, dtype=wp.float32)
 
 @wp.struct
 class GBufferArrays:
-    """The ``GBuffer`` arrays as one kernel argument."""
+    """The ``GBuffer`` arrays as one kernel argument, indexed [row, column] (what the
+    stages after the primary pass take; see ``gbuffer_arrays``)."""
 
     position: wp.array2d(dtype=wp.vec3)
     normal: wp.array2d(dtype=wp.vec3)
@@ -78,6 +91,15 @@ def camera_ray_dir(cam: CameraGPU, px: float, py: float) -> wp.vec3:
     ndc_x = 2.0 * px / float(cam.width) - 1.0
     ndc_y = 1.0 - 2.0 * py / float(cam.height)
     return cam.forward + cam.right * (ndc_x * cam.tan_x) + cam.up * (ndc_y * cam.tan_y)
+
+
+@wp.func(inline=True)
+def pixel_footprint(scene: SceneGPU, cam: CameraGPU, tri: int, d: wp.vec3) -> wp.vec4:
+    """uv footprint (du/dx, dv/dx, du/dy, dv/dy) on triangle ``tri`` of the pixel whose
+    camera ray is ``d``: the ray differentials of one pixel step right and down."""
+    ddx = cam.right * (2.0 * cam.tan_x / float(cam.width))
+    ddy = cam.up * (-2.0 * cam.tan_y / float(cam.height))
+    return uv_footprint(scene, tri, cam.origin, d, ddx, ddy)
 
 
 @wp.func(inline=True)
@@ -188,11 +210,9 @@ def _raster_triangle(
     vis: wp.array3d(dtype=wp.uint64),
     mode: int,
     slot: int,
-    row0: int,
-    row_step: int,
 ):
     """Rasterize one projected triangle (screen x, screen y, view depth per corner)
-    into ``vis[slot]``, visiting only rows row0, row0 + row_step, ..."""
+    into ``vis[slot]``."""
     ax = _fixed(a[0])
     ay = _fixed(a[1])
     bx = _fixed(b[0])
@@ -229,7 +249,6 @@ def _raster_triangle(
     if x0 > x1 or y0 > y1:
         return
     cutout = (scene.materials[scene.triangle_material[tri]].flags & FLAG_CUTOUT) != 0
-    y_first = y0 + ((row0 - y0) % row_step + row_step) % row_step
 
     # w_a = E(b, c, p), w_b = E(c, a, p), w_c = E(a, b, p) with
     # E(u, v, p) = (v.x - u.x)(p.y - u.y) - (v.y - u.y)(p.x - u.x); w_a + w_b + w_c = area.
@@ -245,26 +264,35 @@ def _raster_triangle(
     farea = float(area)
     # z = farea / denom lies in (0, far] exactly when denom >= farea / far.
     min_denom = farea / cam.far
-    # Reciprocal steps give each row's covered span up to rounding; the span is widened
-    # by one pixel each side and every pixel in it still takes the exact integer test.
+    # Rows wider than NARROW_PX pixels narrow their span first: reciprocal steps give
+    # the covered span up to rounding; it is widened by one pixel each side and every
+    # pixel in it still takes the exact integer test.  Narrow boxes test every pixel.
+    wide = x1 - x0 >= NARROW_PX
     span_max = float(x1 - x0 + 2)
-    inv_sa = _inv_step(step_a)
-    inv_sb = _inv_step(step_b)
-    inv_sc = _inv_step(step_c)
+    inv_sa = float(0.0)
+    inv_sb = float(0.0)
+    inv_sc = float(0.0)
+    if wide:
+        inv_sa = _inv_step(step_a)
+        inv_sb = _inv_step(step_b)
+        inv_sc = _inv_step(step_c)
     px0 = wp.int64(x0) * SUBPIXEL + HALF_SUBPIXEL
-    for y in range(y_first, y1 + 1, row_step):
+    for y in range(y0, y1 + 1):
         py = wp.int64(y) * SUBPIXEL + HALF_SUBPIXEL
         wa = (cx - bx) * (py - by) - (cy - by) * (px0 - bx) + bias_a
         wb = (ax - cx) * (py - cy) - (ay - cy) * (px0 - cx) + bias_b
         wc = (bx - ax) * (py - ay) - (by - ay) * (px0 - ax) + bias_c
-        span = _span(wa, step_a, inv_sa, span_max, wp.vec2(0.0, span_max))
-        span = _span(wb, step_b, inv_sb, span_max, span)
-        span = _span(wc, step_c, inv_sc, span_max, span)
-        lo = wp.max(int(span[0]), 0)
-        hi = wp.min(int(span[1]), x1 - x0)
-        wa += wp.int64(lo) * step_a
-        wb += wp.int64(lo) * step_b
-        wc += wp.int64(lo) * step_c
+        lo = int(0)
+        hi = x1 - x0
+        if wide:
+            span = _span(wa, step_a, inv_sa, span_max, wp.vec2(0.0, span_max))
+            span = _span(wb, step_b, inv_sb, span_max, span)
+            span = _span(wc, step_c, inv_sc, span_max, span)
+            lo = wp.max(int(span[0]), 0)
+            hi = wp.min(int(span[1]), x1 - x0)
+            wa += wp.int64(lo) * step_a
+            wb += wp.int64(lo) * step_b
+            wc += wp.int64(lo) * step_c
         for k in range(lo, hi + 1):
             if (wa | wb | wc) >= wp.int64(0):
                 x = x0 + k
@@ -319,8 +347,6 @@ def _raster_clipped(
     vis: wp.array3d(dtype=wp.uint64),
     mode: int,
     slot: int,
-    row0: int,
-    row_step: int,
 ):
     """The rare path: a camera-space triangle crossing the near plane or leaving the
     guard band, clipped to a polygon and rasterized as a fan."""
@@ -382,29 +408,50 @@ def _raster_clipped(
     for i in range(1, n - 1):
         s1 = _project(cam, wp.vec3(xs[i], ys[i], zs[i]))
         s2 = _project(cam, wp.vec3(xs[i + 1], ys[i + 1], zs[i + 1]))
-        _raster_triangle(s0, s1, s2, tri, scene, cam, vis, mode, slot, row0, row_step)
+        _raster_triangle(s0, s1, s2, tri, scene, cam, vis, mode, slot)
+
+
+@wp.kernel
+def camera_points_kernel(
+    scene: SceneGPU,
+    cam: CameraGPU,
+    camera_points: wp.array(dtype=wp.vec3),
+    screen_points: wp.array(dtype=wp.vec3),
+    start: int,
+    step: int,
+):
+    """Points start, start + step, ... in camera space (x right, y up, z = view depth)
+    and, in front of the near plane, on screen (x, y in pixels, view depth): once per
+    vertex rather than once per triangle corner."""
+    i = start + wp.tid() * step
+    c = _to_camera(cam, scene.points[i])
+    camera_points[i] = c
+    if c[2] >= cam.near:
+        screen_points[i] = _project(cam, c)
 
 
 @wp.kernel
 def visibility_kernel(
     scene: SceneGPU,
     cam: CameraGPU,
+    camera_points: wp.array(dtype=wp.vec3),
+    screen_points: wp.array(dtype=wp.vec3),
     vis: wp.array3d(dtype=wp.uint64),
     mode: int,
     slot: int,
-    row0: int,
-    row_step: int,
     tri_start: int,
     tri_step: int,
 ):
-    """Rasterize triangles tri_start, tri_start + tri_step, ... into ``vis[slot]``
-    (rows row0, row0 + row_step, ...): depth keys (MODE_DEPTH) or fragment counts
-    (MODE_COUNT)."""
+    """Rasterize triangles tri_start, tri_start + tri_step, ... (corners from
+    ``camera_points_kernel``) into ``vis[slot]``: depth keys (MODE_DEPTH) or fragment
+    counts (MODE_COUNT)."""
     tri = tri_start + wp.tid() * tri_step
-    pts = _triangle_points(scene, tri)
-    c0 = _to_camera(cam, pts[0])
-    c1 = _to_camera(cam, pts[1])
-    c2 = _to_camera(cam, pts[2])
+    i0 = scene.indices[3 * tri]
+    i1 = scene.indices[3 * tri + 1]
+    i2 = scene.indices[3 * tri + 2]
+    c0 = camera_points[i0]
+    c1 = camera_points[i1]
+    c2 = camera_points[i2]
 
     # Trivial rejects: wholly behind the near plane, beyond the far plane, or outside
     # one side plane of the view frustum.
@@ -422,49 +469,86 @@ def visibility_kernel(
         return
 
     if c0[2] >= cam.near and c1[2] >= cam.near and c2[2] >= cam.near:
-        s0 = _project(cam, c0)
-        s1 = _project(cam, c1)
-        s2 = _project(cam, c2)
+        s0 = screen_points[i0]
+        s1 = screen_points[i1]
+        s2 = screen_points[i2]
         if _in_guard_band(cam, s0) and _in_guard_band(cam, s1) and _in_guard_band(cam, s2):
-            _raster_triangle(s0, s1, s2, tri, scene, cam, vis, mode, slot, row0, row_step)
+            _raster_triangle(s0, s1, s2, tri, scene, cam, vis, mode, slot)
             return
 
-    _raster_clipped(c0, c1, c2, tri, scene, cam, vis, mode, slot, row0, row_step)
+    _raster_clipped(c0, c1, c2, tri, scene, cam, vis, mode, slot)
+
+
+@wp.struct
+class GBufferRows:
+    """The ``GBuffer`` arrays as flat (height * width) views, row-major: the primary
+    passes store pixel (x, y) at ``y * width + x`` (one index instead of two checked
+    ones per store, which showed up across ten stores per pixel)."""
+
+    position: wp.array(dtype=wp.vec3)
+    normal: wp.array(dtype=wp.vec3)
+    geometric_normal: wp.array(dtype=wp.vec3)
+    depth: wp.array(dtype=wp.float32)
+    albedo: wp.array(dtype=wp.vec3)
+    specular: wp.array(dtype=wp.vec3)
+    emission: wp.array(dtype=wp.vec3)
+    optics: wp.array(dtype=wp.vec4)
+    material_id: wp.array(dtype=wp.int32)
+    triangle_id: wp.array(dtype=wp.int32)
 
 
 @wp.func(inline=True)
-def _write_background(gb: GBufferArrays, y: int, x: int):
+def _write_background(gb: GBufferRows, i: int):
     zero = wp.vec3(0.0, 0.0, 0.0)
-    gb.position[y, x] = zero
-    gb.normal[y, x] = zero
-    gb.geometric_normal[y, x] = zero
-    gb.depth[y, x] = wp.inf
-    gb.albedo[y, x] = zero
-    gb.specular[y, x] = zero
-    gb.emission[y, x] = zero
-    gb.optics[y, x] = wp.vec4(0.0, 0.0, 0.0, 0.0)
-    gb.material_id[y, x] = -1
-    gb.triangle_id[y, x] = -1
+    gb.position[i] = zero
+    gb.normal[i] = zero
+    gb.geometric_normal[i] = zero
+    gb.depth[i] = wp.inf
+    gb.albedo[i] = zero
+    gb.specular[i] = zero
+    gb.emission[i] = zero
+    gb.optics[i] = wp.vec4(0.0, 0.0, 0.0, 0.0)
+    gb.material_id[i] = -1
+    gb.triangle_id[i] = -1
+
+
+@wp.func(inline=True)
+def _textured(scene: SceneGPU, tri: int) -> bool:
+    """Whether the triangle's material samples any texture."""
+    m = scene.materials[scene.triangle_material[tri]]
+    slots = wp.max(wp.max(m.diffuse_tex, m.emissive_tex), wp.max(m.roughness_tex, m.metallic_tex))
+    return wp.max(slots, m.opacity_tex) >= 0
 
 
 @wp.func(inline=True)
 def _write_hit(
-    gb: GBufferArrays, y: int, x: int, scene: SceneGPU, tri: int, t: float, bu: float, bv: float, d: wp.vec3
+    gb: GBufferRows,
+    i: int,
+    scene: SceneGPU,
+    cam: CameraGPU,
+    tri: int,
+    t: float,
+    bu: float,
+    bv: float,
+    d: wp.vec3,
 ):
-    """Evaluate the surface and store it; ``t`` is the view depth (``d`` has unit
-    forward component)."""
-    h = surface_at(scene, tri, bu, bv, d)
-    gb.position[y, x] = h.position
-    gb.normal[y, x] = h.normal
-    gb.geometric_normal[y, x] = h.geometric_normal
-    gb.depth[y, x] = t
-    gb.albedo[y, x] = h.albedo
-    gb.specular[y, x] = h.specular
-    gb.emission[y, x] = h.emission
+    """Evaluate the surface (textures filtered over the pixel's footprint) and store
+    it at flat index ``i``; ``t`` is the view depth (``d`` has unit forward component)."""
+    footprint = wp.vec4(0.0, 0.0, 0.0, 0.0)
+    if _textured(scene, tri):
+        footprint = pixel_footprint(scene, cam, tri, d)
+    h = surface_at_grad(scene, tri, bu, bv, d, footprint)
+    gb.position[i] = h.position
+    gb.normal[i] = h.normal
+    gb.geometric_normal[i] = h.geometric_normal
+    gb.depth[i] = t
+    gb.albedo[i] = h.albedo
+    gb.specular[i] = h.specular
+    gb.emission[i] = h.emission
     reflectivity = 0.2126 * h.specular[0] + 0.7152 * h.specular[1] + 0.0722 * h.specular[2]
-    gb.optics[y, x] = wp.vec4(reflectivity, h.ior, h.opacity, h.roughness)
-    gb.material_id[y, x] = h.material
-    gb.triangle_id[y, x] = tri
+    gb.optics[i] = wp.vec4(reflectivity, h.ior, h.opacity, h.roughness)
+    gb.material_id[i] = h.material
+    gb.triangle_id[i] = tri
 
 
 @wp.kernel
@@ -472,18 +556,19 @@ def resolve_kernel(
     scene: SceneGPU,
     cam: CameraGPU,
     vis: wp.array3d(dtype=wp.uint64),
-    gb: GBufferArrays,
+    gb: GBufferRows,
     row0: int,
     row_step: int,
 ):
     """Per pixel: the nearest key over all visibility slices -> exact hit -> G-buffer."""
     r, x = wp.tid()
     y = row0 + r * row_step
+    i = y * cam.width + x
     key = vis[0, y, x]
     for s in range(1, vis.shape[0]):
         key = wp.min(key, vis[s, y, x])
     if key == EMPTY_KEY:
-        _write_background(gb, y, x)
+        _write_background(gb, i)
         return
     tri = int(key & wp.uint64(0xFFFFFFFF))
     d = camera_ray_dir(cam, float(x) + 0.5, float(y) + 0.5)
@@ -492,19 +577,20 @@ def resolve_kernel(
     t = h[0]
     if h[3] == 0.0 or not (t > 0.0):
         # Grazing: the ray runs (numerically) in the triangle's plane.
-        p = surface_at(scene, tri, h[1], h[2], d).position
+        p = pts[0] * h[1] + pts[1] * h[2] + pts[2] * (1.0 - h[1] - h[2])
         t = wp.dot(p - cam.origin, cam.forward)
-    _write_hit(gb, y, x, scene, tri, t, h[1], h[2], d)
+    _write_hit(gb, i, scene, cam, tri, t, h[1], h[2], d)
 
 
 @wp.kernel
-def raycast_kernel(scene: SceneGPU, cam: CameraGPU, gb: GBufferArrays, row0: int, row_step: int):
+def raycast_kernel(scene: SceneGPU, cam: CameraGPU, gb: GBufferRows, row0: int, row_step: int):
     """Per pixel: closest ``wp.mesh_query_ray`` hit between the near and far planes,
     stepping past hits in cut-out holes."""
     r, x = wp.tid()
     y = row0 + r * row_step
+    i = y * cam.width + x
     if scene.mesh == wp.uint64(0):
-        _write_background(gb, y, x)
+        _write_background(gb, i)
         return
     d = camera_ray_dir(cam, float(x) + 0.5, float(y) + 0.5)
     t_base = cam.near
@@ -514,10 +600,30 @@ def raycast_kernel(scene: SceneGPU, cam: CameraGPU, gb: GBufferArrays, row0: int
             break
         t = t_base + q.t
         if not is_cut_away(scene, q.face, q.u, q.v):
-            _write_hit(gb, y, x, scene, q.face, t, q.u, q.v, d)
+            _write_hit(gb, i, scene, cam, q.face, t, q.u, q.v, d)
             return
         t_base = t + 1.0e-5 * t
-    _write_background(gb, y, x)
+    _write_background(gb, i)
+
+
+def gbuffer_rows(gbuffer) -> GBufferRows:
+    """Flat views of a ``GBuffer``'s arrays as the kernel-side struct of the primary
+    passes."""
+    s = GBufferRows()
+    for name in (
+        "position",
+        "normal",
+        "geometric_normal",
+        "depth",
+        "albedo",
+        "specular",
+        "emission",
+        "optics",
+        "material_id",
+        "triangle_id",
+    ):
+        setattr(s, name, getattr(gbuffer, name).reshape((-1,)))
+    return s
 
 
 def gbuffer_arrays(gbuffer) -> GBufferArrays:

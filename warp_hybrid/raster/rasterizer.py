@@ -2,14 +2,16 @@
 
 ``Rasterizer.render`` runs two timed stages:
 
-* ``raster``: every triangle is rasterized into a visibility buffer of packed 64-bit
+* ``raster``: the points are transformed once (``kernels.camera_points_kernel``),
+  then every triangle is rasterized into a visibility buffer of packed 64-bit
   keys (float32 view-depth bits << 32 | triangle id) with one atomic min per covered
   pixel centre (see ``kernels.visibility_kernel``).  On a CPU, Warp's atomics are
   plain read-modify-writes and one launch runs on one thread, so the triangles are
   split between the launcher's threads and each thread owns one slice of the
   buffer; the resolve pass takes the minimum over the slices (no merge pass).
 * ``resolve``: per pixel, the winning triangle is intersected with the pixel's
-  camera ray for exact depth and barycentrics and its surface is evaluated
+  camera ray for exact depth and barycentrics and its surface is evaluated, textures
+  filtered (trilinear mip mapping) over the pixel's footprint
   (``kernels.resolve_kernel``).
 """
 
@@ -42,6 +44,7 @@ class Rasterizer:
         """Use ``launcher`` for the device and the host threads."""
         self.launcher = launcher
         self._vis: wp.array | None = None
+        self._points: tuple[wp.array, wp.array] | None = None
 
     def _slices(self, height: int, width: int) -> wp.array:
         """The visibility buffer, one (height, width) slice per thread, reused."""
@@ -50,11 +53,22 @@ class Rasterizer:
             self._vis = wp.empty(shape, dtype=wp.uint64, device=self.launcher.device)
         return self._vis
 
+    def _transform_points(self, scene: DeviceScene, camera: CameraGPU) -> tuple[wp.array, wp.array]:
+        """The scene's points in camera space and on screen (buffers reused between
+        frames), see ``kernels.camera_points_kernel``."""
+        count = len(scene.points)
+        if self._points is None or self._points[0].shape[0] != count:
+            self._points = tuple(wp.zeros(count, dtype=wp.vec3, device=self.launcher.device) for _ in range(2))
+        self.launcher.launch_items(kernels.camera_points_kernel, count, [scene.gpu, camera, *self._points])
+        return self._points
+
     def _rasterize(self, scene: DeviceScene, camera: CameraGPU, vis: wp.array, mode: int, clear: int) -> None:
-        """Run the visibility kernel, each thread on every n-th triangle into its slice."""
+        """Transform the points, then run the visibility kernel, each thread on every
+        n-th triangle into its slice."""
         launcher = self.launcher
         launcher.ensure_loaded(kernels.visibility_kernel)
         count = scene.scene.triangle_count
+        cam_points, screen_points = self._transform_points(scene, camera)
 
         def piece(k: int, n: int) -> None:
             vis[k].fill_(clear)
@@ -63,7 +77,7 @@ class Rasterizer:
                 wp.launch(
                     kernels.visibility_kernel,
                     dim=tris,
-                    inputs=[scene.gpu, camera, vis, mode, k, 0, 1, k, n],
+                    inputs=[scene.gpu, camera, cam_points, screen_points, vis, mode, k, k, n],
                     device=launcher.device,
                 )
 
@@ -80,7 +94,7 @@ class Rasterizer:
                 kernels.resolve_kernel,
                 gbuffer.height,
                 gbuffer.width,
-                [scene.gpu, camera, vis, kernels.gbuffer_arrays(gbuffer)],
+                [scene.gpu, camera, vis, kernels.gbuffer_rows(gbuffer)],
             )
 
     def overdraw(self, scene: DeviceScene, camera: CameraGPU) -> np.ndarray:

@@ -30,5 +30,5 @@ class RayCaster:
                 kernels.raycast_kernel,
                 gbuffer.height,
                 gbuffer.width,
-                [scene.gpu, camera, kernels.gbuffer_arrays(gbuffer)],
+                [scene.gpu, camera, kernels.gbuffer_rows(gbuffer)],
             )

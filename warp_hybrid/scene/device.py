@@ -15,6 +15,7 @@ import warp as wp
 
 from ..timing import StageTimer
 from .features import analyse_features
+from .mipmaps import mip_chain
 from .model import Camera, Scene
 
 # Material flag bits (MaterialGPU.flags).
@@ -51,13 +52,25 @@ class MaterialGPU:
     opacity_channel: int
 
 
+# Longest mip chain kept (level 15 of a 32768-texel image is 1 texel wide).
+MAX_MIP_LEVELS = 16
+MipOffsets = wp.types.vector(length=MAX_MIP_LEVELS, dtype=wp.int32)
+
+
 @wp.struct
 class TextureGPU:
-    """One UsdUVTexture binding: where its image starts in ``texels`` and how to sample."""
+    """One UsdUVTexture binding: where its image starts in ``texels`` and how to sample.
+
+    ``offset``, ``width`` and ``height`` describe mip level 0 (the image itself);
+    ``levels`` counts its mip chain (1 when none was built), level L being
+    ``max(1, width >> L)`` x ``max(1, height >> L)`` texels at ``level_offsets[L]``
+    (see ``mipmaps``; entries past the chain repeat its last level)."""
 
     offset: int
     width: int
     height: int
+    levels: int
+    level_offsets: MipOffsets
     wrap_s: int
     wrap_t: int
     scale: wp.vec4
@@ -151,6 +164,17 @@ def make_camera_gpu(camera: Camera, width: int, height: int) -> CameraGPU:
     return c
 
 
+def _material_images(scene: Scene) -> set[int]:
+    """Indices of the images some material samples (those get mip chains; an image
+    only the dome light uses is looked up unfiltered and needs none)."""
+    used = set()
+    for m in scene.materials:
+        for slot in (m.diffuse_texture, m.emissive_texture, m.roughness_texture, m.metallic_texture, m.opacity_texture):
+            if 0 <= slot < len(scene.textures):
+                used.add(scene.textures[slot].image)
+    return used
+
+
 def _struct_array(items: list, dtype: type, device: wp.context.Device) -> wp.array:
     """A Warp array of structs; never empty (a default element pads an empty list,
     the real count travels separately), since kernels cannot take 0-length tables."""
@@ -241,27 +265,41 @@ class DeviceScene:
         )
         self.materials = _struct_array([_material_gpu(m) for m in scene.materials], MaterialGPU, d)
         texels, tex_structs = self._pack_textures(scene)
-        self.texels = wp.array(texels, dtype=wp.vec4, device=d)
+        # copy=False: on the CPU the packed array itself becomes the device array.
+        self.texels = wp.array(texels, dtype=wp.vec4, device=d, copy=False)
         self.textures = _struct_array(tex_structs, TextureGPU, d)
         self.lights = _struct_array([_light_gpu(li) for li in scene.lights], LightGPU, d)
 
     @staticmethod
     def _pack_textures(scene: Scene) -> tuple[np.ndarray, list[TextureGPU]]:
-        offsets = []
+        """Flat texels of every image (with its mip chain when a material samples it,
+        so minified lookups can pick a level) and one ``TextureGPU`` per binding."""
+        mipped = _material_images(scene)
+        chains = [
+            mip_chain(img.pixels)[:MAX_MIP_LEVELS] if k in mipped else [img.pixels]
+            for k, img in enumerate(scene.images)
+        ]
+        level_offsets = []
         total = 0
-        for img in scene.images:
-            offsets.append(total)
-            total += img.width * img.height
+        for chain in chains:
+            starts = []
+            for level in chain:
+                starts.append(total)
+                total += level.shape[0] * level.shape[1]
+            level_offsets.append(starts + [starts[-1]] * (MAX_MIP_LEVELS - len(starts)))
         texels = np.zeros((max(total, 1), 4), dtype=np.float32)
-        for img, off in zip(scene.images, offsets):
-            texels[off : off + img.width * img.height] = img.pixels.reshape(-1, 4)
+        for chain, starts in zip(chains, level_offsets):
+            for level, start in zip(chain, starts):
+                texels[start : start + level.shape[0] * level.shape[1]] = level.reshape(-1, 4)
         structs = []
         for t in scene.textures:
             g = TextureGPU()
             img = scene.images[t.image]
-            g.offset = offsets[t.image]
+            g.offset = level_offsets[t.image][0]
             g.width = img.width
             g.height = img.height
+            g.levels = len(chains[t.image])
+            g.level_offsets = MipOffsets(*level_offsets[t.image])
             g.wrap_s = int(t.wrap_s)
             g.wrap_t = int(t.wrap_t)
             g.scale = wp.vec4(*[float(v) for v in t.scale])

@@ -1,0 +1,131 @@
+"""The simple CSV trace format: ``t,x,y[,confidence]``, one sample per row.
+
+``t`` is in seconds; ``x, y`` are normalised with the origin at the top-left, or pixels
+of a screen whose size the caller gives.  Empty ``x``/``y`` cells mark invalid samples
+(blinks, track loss); ``confidence`` defaults to 1 and, as for every format, a sample
+below the reader's minimum confidence (default 0.6) is invalid.  The writer always
+emits the header ``t,x,y,confidence`` and writes invalid rows as ``t,,,0``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from gaze.atomic import write_text_atomic
+from gaze.errors import GazeError
+from gaze.trace.data import DEFAULT_MIN_CONFIDENCE, TraceData, make_trace_data
+from gaze.trace.table import Table, read_table
+
+FORMAT = "simple"
+HEADER = ["t", "x", "y"]
+#: Normalised values beyond this magnitude are taken as pixels given by mistake.
+PIXEL_SUSPICION = 2.0
+
+
+def is_simple_header(header: list[str]) -> bool:
+    """True for ``t,x,y`` or ``t,x,y,confidence`` (case-insensitive)."""
+    names = [h.lower() for h in header]
+    return names in (HEADER, HEADER + ["confidence"])
+
+
+def read_simple(
+    path: str | Path,
+    screen_px: tuple[int, int] | None = None,
+    min_confidence: float = DEFAULT_MIN_CONFIDENCE,
+) -> TraceData:
+    """Read a simple CSV trace; with ``screen_px=(W, H)`` the x, y columns are pixels."""
+    table = read_table(path, ",")
+    return simple_from_table(table, screen_px, min_confidence)
+
+
+def simple_from_table(
+    table: Table, screen_px: tuple[int, int] | None, min_confidence: float = DEFAULT_MIN_CONFIDENCE
+) -> TraceData:
+    """Build the trace from an already parsed simple CSV table."""
+    if not is_simple_header(table.header):
+        raise GazeError(table.path, f"unknown columns {table.header}; the simple format is t,x,y[,confidence]")
+    width = len(table.header)
+    for row, line in zip(table.rows, table.lines):
+        if any(cell.strip() for cell in row[width:]):
+            raise GazeError(table.path, f"line {int(line)}: {len(row)} cells but the header names {width} columns")
+    t, x, y = (table.floats(i) for i in range(3))
+    confidence = table.floats(3) if width == 4 else np.ones_like(t)
+    confidence = np.where(np.isnan(confidence), 1.0, confidence)
+    if screen_px is not None:
+        x, y = x / screen_px[0], y / screen_px[1]
+    else:
+        biggest = float(np.nanmax(np.abs(np.concatenate([x, y])), initial=0.0))
+        if biggest > PIXEL_SUSPICION:
+            raise GazeError(
+                table.path,
+                f"coordinates up to {biggest:g} look like pixels; give the screen size (screen=WxH / --screen WxH)",
+            )
+    usable = np.ones(t.shape, bool)
+    return make_trace_data(table.path, FORMAT, t, x, y, confidence, usable, table.lines, min_confidence)
+
+
+def _check_samples(
+    where: str, t: np.ndarray, x: np.ndarray, y: np.ndarray, confidence: np.ndarray, valid: np.ndarray
+) -> None:
+    """Refuse samples that the reader could not read back."""
+    if not (t.shape == x.shape == y.shape == confidence.shape == valid.shape) or t.ndim != 1:
+        raise GazeError(where, "t, x, y, confidence and valid must be 1-D arrays of one length")
+    if not np.isfinite(t).all():
+        raise GazeError(where, "timestamps must be finite")
+    if (np.diff(np.round(t, 6)) <= 0).any():
+        raise GazeError(where, "timestamps must be strictly increasing, at least 1 us apart")
+    measured = np.isfinite(x) & np.isfinite(y) & np.isfinite(confidence)
+    if (valid & ~measured).any():
+        raise GazeError(where, f"valid sample {int(np.argmax(valid & ~measured))} has a non-finite x, y or confidence")
+
+
+def format_simple(
+    t: np.ndarray,
+    x: np.ndarray,
+    y: np.ndarray,
+    confidence: np.ndarray,
+    valid: np.ndarray,
+    screen_px: tuple[int, int] | None = None,
+    where: str = "simple CSV",
+) -> str:
+    """The simple CSV text: header ``t,x,y,confidence``, one row per sample.
+
+    ``t`` is written as given (seconds; readers re-base it to the first sample);
+    invalid rows are ``t,,,0``.  With ``screen_px`` the coordinates are written in
+    pixels, otherwise normalised (origin top-left).  Times are written to 1 us,
+    normalised coordinates to 1e-6, pixels to 0.01 px, confidences to 1e-4.
+    Samples the reader could not read back (unsorted or non-finite times, a valid
+    sample without a point) are a ``GazeError`` naming ``where``.
+    """
+    t, x, y, confidence = (np.asarray(a, dtype=float) for a in (t, x, y, confidence))
+    valid = np.asarray(valid, dtype=bool)
+    _check_samples(where, t, x, y, confidence, valid)
+    lines = ["t,x,y,confidence"]
+    for ti, xi, yi, ci, vi in zip(t, x, y, confidence, valid):
+        if not vi:
+            lines.append(f"{ti:.6f},,,0")
+        elif screen_px is not None:
+            lines.append(f"{ti:.6f},{xi * screen_px[0]:.2f},{yi * screen_px[1]:.2f},{ci:.4f}")
+        else:
+            lines.append(f"{ti:.6f},{xi:.6f},{yi:.6f},{ci:.4f}")
+    return "\n".join(lines) + "\n"
+
+
+def write_simple(
+    path: str | Path,
+    t: np.ndarray,
+    x: np.ndarray,
+    y: np.ndarray,
+    confidence: np.ndarray,
+    valid: np.ndarray,
+    screen_px: tuple[int, int] | None = None,
+) -> None:
+    """Write a simple CSV trace atomically (see ``format_simple``)."""
+    write_text_atomic(path, format_simple(t, x, y, confidence, valid, screen_px, where=str(path)))
+
+
+def write_trace(path: str | Path, data: TraceData, screen_px: tuple[int, int] | None = None) -> None:
+    """Write a trace read from any format as a simple CSV (times from its first sample)."""
+    write_simple(path, data.t, data.x, data.y, data.confidence, data.valid, screen_px)

@@ -1,0 +1,48 @@
+"""Helpers shared by the benchmark scripts: scene discovery, medians, subprocess runs."""
+
+from __future__ import annotations
+
+import json
+import os
+import resource
+import statistics
+import sys
+from collections.abc import Callable
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+
+def shared_scenes_dir() -> Path:
+    """``WARP_HYBRID_SHARED_SCENES`` or ``../shared/scenes`` beside the checkout."""
+    return Path(os.environ.get("WARP_HYBRID_SHARED_SCENES", ROOT.parent / "shared" / "scenes"))
+
+
+def manifest_scenes(names: list[str] | None = None) -> list[dict]:
+    """Entries of the shared scenes' manifest.json (optionally only ``names``), each
+    with an absolute ``path``; exits with a message when the folder is absent."""
+    folder = shared_scenes_dir()
+    manifest = folder / "manifest.json"
+    if not manifest.is_file():
+        sys.exit(f"shared scenes not found at {folder} (set WARP_HYBRID_SHARED_SCENES)")
+    entries = json.loads(manifest.read_text())["scenes"]
+    if names:
+        entries = [e for e in entries if e["name"] in names]
+    for e in entries:
+        e["path"] = str(folder / e["file"])
+    return entries
+
+
+def median_ms(fn: Callable[[], dict[str, float]], repeats: int = 5, warmup: int = 1) -> dict[str, float]:
+    """Run ``fn`` (returning ms per stage) ``warmup`` times, then ``repeats`` times;
+    return the per-stage medians."""
+    for _ in range(warmup):
+        fn()
+    runs = [fn() for _ in range(repeats)]
+    return {k: statistics.median(r[k] for r in runs) for k in runs[0]}
+
+
+def peak_rss_mb() -> float:
+    """Peak resident set size of this process in MiB (Linux ru_maxrss is in KiB)."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0

@@ -1,0 +1,77 @@
+"""The command line as a user runs it: render, info, convert, and clear errors."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+import trimesh
+
+from warp_hybrid.cli import main
+
+ROOT = Path(__file__).resolve().parents[1]
+CORNELL = ROOT / "scenes" / "cornell_glass.usda"
+
+
+def test_render_writes_png_aovs_and_stats(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    out = tmp_path / "img.png"
+    code = main(["render", str(CORNELL), "-o", str(out), "--size", "64x48", "--aov-dir", str(tmp_path / "aov"),
+                 "--stats-json", str(tmp_path / "stats.json")])
+    assert code == 0
+    img = cv2.imread(str(out))
+    assert img.shape == (48, 64, 3) and img.std() > 5  # a real picture, not a flat fill
+    depth = np.load(tmp_path / "aov" / "depth.npy")
+    assert depth.shape == (48, 64) and depth.dtype == np.float32 and np.isfinite(depth).mean() > 0.9
+    for name in ("position", "normal", "albedo", "color"):
+        assert np.load(tmp_path / "aov" / f"{name}.npy").shape == (48, 64, 3)
+    stats = json.loads((tmp_path / "stats.json").read_text())
+    assert stats["resolution"] == [64, 48] and stats["device"] == "cpu"
+    assert {"raster", "resolve", "lighting", "tonemap", "aa"} <= set(stats["stages_ms"])
+    assert {"load", "upload", "bvh_build"} <= set(stats["setup_ms"])
+    assert "img.png" in capsys.readouterr().out
+
+
+def test_info_lists_effects(capsys: pytest.CaptureFixture) -> None:
+    assert main(["info", str(CORNELL), "--json"]) == 0
+    info = json.loads(capsys.readouterr().out)
+    assert info["triangles"] == 2242
+    assert {"shadows", "reflections", "refractions", "transparency"} <= set(info["effects"])
+
+
+def test_convert_then_render(tmp_path: Path) -> None:
+    box = trimesh.creation.box(extents=(1, 2, 3))
+    src = tmp_path / "box.ply"
+    box.export(src)
+    dst = tmp_path / "box.usda"
+    assert main(["convert", str(src), str(dst)]) == 0
+    assert main(["render", str(dst), "-o", str(tmp_path / "b.png"), "--size", "32x24"]) == 0
+    assert cv2.imread(str(tmp_path / "b.png")).shape == (24, 32, 3)
+
+
+@pytest.mark.parametrize(
+    "args, needle",
+    [
+        (["render", "missing.usda"], "missing.usda"),
+        (["render", str(CORNELL), "--camera", "/World/Cameras/Nope"], "/World/Cameras/Nope"),
+        (["render", str(CORNELL), "--device", "cuda:9"], "cuda:9"),
+    ],
+)
+def test_errors_name_the_problem_and_write_nothing(tmp_path: Path, capsys: pytest.CaptureFixture, args: list[str], needle: str) -> None:
+    out = tmp_path / "never.png"
+    code = main([*args, "-o", str(out), "--size", "32x24", "--stats-json", str(tmp_path / "s.json")])
+    assert code == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and needle in err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_not_usd_file_is_a_clear_error(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    bad = tmp_path / "broken.usda"
+    bad.write_text("this is not usd\n")
+    assert main(["render", str(bad), "-o", str(tmp_path / "x.png")]) == 2
+    err = capsys.readouterr().err
+    assert str(bad) in err
+    assert not (tmp_path / "x.png").exists()

@@ -1,0 +1,102 @@
+"""Helpers for the tracer tests: rasterize a G-buffer, trace a pixel list."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import warp as wp
+
+from warp_hybrid.parallel import Launcher
+from warp_hybrid.raster.gbuffer import GBuffer
+from warp_hybrid.raster.rasterizer import Rasterizer
+from warp_hybrid.scene.device import DeviceScene, make_camera_gpu
+from warp_hybrid.scene.builders import MeshInput
+from warp_hybrid.scene.model import Camera, Material, Scene, SceneFeatures
+from warp_hybrid.timing import StageTimer
+from warp_hybrid.trace import RayCounts, Tracer, TraceSettings
+
+# Every feature on: the scenes of the reflection/refraction tests share this one
+# compiled variant (a superset of what each needs) to keep the suite fast.
+ALL_FEATURES = SceneFeatures(
+    shadows=True, reflections=True, refractions=True, transparency=True, environment=True, emission=True, cutouts=True
+)
+
+
+@dataclass
+class Traced:
+    """What one ``trace`` call produced, on the host."""
+
+    color: np.ndarray
+    visibility: np.ndarray
+    triangle_id: np.ndarray
+    position: np.ndarray
+    counts: RayCounts
+    stages_ms: dict[str, float]
+    tracer: Tracer
+
+
+def trace_scene(
+    scene: Scene,
+    camera: Camera,
+    device: str,
+    width: int = 96,
+    height: int = 72,
+    pixels: np.ndarray | None = None,
+    settings: TraceSettings | None = None,
+    features: SceneFeatures | None = None,
+    threads: int = 1,
+) -> Traced:
+    """Rasterize ``scene`` and trace ``pixels`` (default: all) with a fresh tracer."""
+    ds = DeviceScene(scene, device)
+    cam = make_camera_gpu(camera, width, height)
+    gb = GBuffer.allocate(width, height, device)
+    lights = max(len(scene.lights), 1)
+    listed = np.arange(width * height, dtype=np.int32) if pixels is None else np.asarray(pixels, np.int32)
+    with Launcher(device, threads=threads) as launcher:
+        Rasterizer(launcher).render(ds, cam, gb, StageTimer())
+        tracer = Tracer(launcher, features or ds.features, settings or TraceSettings())
+        color = wp.zeros((height, width), dtype=wp.vec3, device=device)
+        vis = wp.full((height, width, lights), value=float("nan"), dtype=wp.float32, device=device)
+        timer = StageTimer()
+        counts = tracer.trace(ds, cam, gb, wp.array(listed, dtype=wp.int32, device=device), len(listed), color, vis, timer)
+    return Traced(color.numpy(), vis.numpy(), gb.triangle_id.numpy(), gb.position.numpy(), counts, timer.stages_ms, tracer)
+
+
+def camera_rays(camera: Camera, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
+    """float64 origin (3,) and unit directions (H, W, 3) through the pixel centres
+    (the ``CameraGPU`` convention)."""
+    m = np.asarray(camera.cam_to_world, dtype=np.float64)
+    right, up, forward = m[:3, 0], m[:3, 1], -m[:3, 2]
+    tan_x = camera.tan_half_fov_x
+    tan_y = camera.tan_half_fov_y(width, height)
+    cols, rows = np.meshgrid(np.arange(width) + 0.5, np.arange(height) + 0.5)
+    ndc_x = 2.0 * cols / width - 1.0
+    ndc_y = 1.0 - 2.0 * rows / height
+    d = forward + (ndc_x * tan_x)[..., None] * right + (ndc_y * tan_y)[..., None] * up
+    return m[:3, 3].copy(), d / np.linalg.norm(d, axis=-1, keepdims=True)
+
+
+def box(center: tuple[float, float, float], half: tuple[float, float, float], rotation_y_deg: float = 0.0, material: int = 0) -> MeshInput:
+    """A closed box (12 outward-facing triangles, flat normals), rotated about +Y."""
+    c = np.asarray(center, dtype=np.float64)
+    hx, hy, hz = half
+    corners = np.array([[x, y, z] for x in (-hx, hx) for y in (-hy, hy) for z in (-hz, hz)], dtype=np.float64)
+    a = np.radians(rotation_y_deg)
+    rot = np.array([[np.cos(a), 0.0, np.sin(a)], [0.0, 1.0, 0.0], [-np.sin(a), 0.0, np.cos(a)]])
+    pts = corners @ rot.T + c
+    # corner index = 4 ix + 2 iy + iz
+    faces = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
+    idx = []
+    for q in faces:
+        idx += [(q[0], q[1], q[2]), (q[0], q[2], q[3])]
+    mesh = MeshInput(pts.astype(np.float32), np.asarray(idx, np.int32), material)
+    centroid = pts[np.asarray(idx)].mean(axis=1)
+    normals = np.cross(pts[np.asarray(idx)[:, 1]] - pts[np.asarray(idx)[:, 0]], pts[np.asarray(idx)[:, 2]] - pts[np.asarray(idx)[:, 0]])
+    assert np.all(np.einsum("ij,ij->i", normals, centroid - c) > 0), "box faces must face outward"
+    return mesh
+
+
+def emissive(name: str, color: tuple[float, float, float]) -> Material:
+    """A black, rough, light-emitting material (its radiance is ``color``)."""
+    return Material(name, diffuse=(0.0, 0.0, 0.0), emissive=color, roughness=1.0)

@@ -1,0 +1,5 @@
+"""Composition of the traced focus layer over the raster image."""
+
+from .blend import Compositor
+
+__all__ = ["Compositor"]

@@ -1,0 +1,62 @@
+"""Composition: blend the traced layer over the raster image with the focus weights
+(the compositing kernel's one Warp module).
+
+Per pixel ``out = raster + weight * (traced - raster)``, selecting instead of
+interpolating at the ends: exactly ``raster`` where ``weight <= 0`` (so whatever the
+traced buffer holds outside the window, NaN included, never leaks in) and exactly
+``traced`` where ``weight >= 1``.  ``out`` may be ``raster`` (blend in place).
+"""
+
+from __future__ import annotations
+
+import warp as wp
+
+from ..parallel import Launcher
+from ..timing import StageTimer
+
+wp.set_module_options({"enable_backward": False})
+
+
+@wp.kernel
+def blend_pixels(
+    raster: wp.array2d(dtype=wp.vec3),
+    traced: wp.array2d(dtype=wp.vec3),
+    weight: wp.array2d(dtype=wp.float32),
+    out: wp.array2d(dtype=wp.vec3),
+    row0: int,
+    row_step: int,
+):
+    """``out = lerp(raster, traced, weight)`` with exact ends."""
+    r, x = wp.tid()
+    y = row0 + r * row_step
+    w = weight[y, x]
+    base = raster[y, x]
+    if w <= 0.0:
+        out[y, x] = base
+    elif w >= 1.0:
+        out[y, x] = traced[y, x]
+    else:
+        out[y, x] = base + w * (traced[y, x] - base)
+
+
+class Compositor:
+    """Blends a traced layer over the raster image."""
+
+    def __init__(self, launcher: Launcher) -> None:
+        """Launch the blend through ``launcher`` (rows split across its threads)."""
+        self.launcher = launcher
+
+    def blend(self, raster: wp.array, traced: wp.array, weight: wp.array, out: wp.array, timer: StageTimer) -> None:
+        """Write ``raster + weight * (traced - raster)`` into ``out`` (stage ``"compose"``).
+
+        All arrays are (H, W): ``raster``, ``traced`` and ``out`` vec3, ``weight``
+        float32; ``out`` may be ``raster``."""
+        shape = tuple(raster.shape)
+        if len(shape) != 2:
+            raise ValueError(f"raster must be an (H, W) image, got shape {shape}")
+        for name, array in (("traced", traced), ("weight", weight), ("out", out)):
+            if tuple(array.shape) != shape:
+                raise ValueError(f"{name} has shape {tuple(array.shape)}, expected {shape} like raster")
+        h, w = shape
+        with timer.stage("compose"):
+            self.launcher.launch_rows(blend_pixels, h, w, [raster, traced, weight, out])

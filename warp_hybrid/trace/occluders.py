@@ -1,0 +1,82 @@
+"""Shadow-ray geometry: the scene's triangles split into two BVHs.
+
+A shadow ray only needs to know whether an *opaque* surface blocks it, which an
+any-hit query answers (it stops at the first triangle found); only the few surfaces
+that let light through or emit it (transmissive, alpha cut-out and emissive
+materials) need the ordered closest-hit walk that multiplies their tints.  So the
+tracer keeps
+
+* ``opaque``: a ``wp.Mesh`` of every other triangle, queried with
+  ``wp.mesh_query_ray_anyhit``;
+* ``special``: a ``wp.Mesh`` of the transmissive, cut-out and emissive triangles,
+  walked with ``wp.mesh_query_ray``; ``special_faces`` maps its faces back to scene
+  triangle ids (materials, textures, normals).
+
+When every triangle is opaque the scene's own BVH serves as ``opaque`` and nothing
+is built.  Both meshes share the ``DeviceScene``'s points array, so after an animated
+update they are refitted, not rebuilt.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import warp as wp
+
+from ..scene.device import DeviceScene
+from ..scene.model import Material
+from .kernels import OccluderGPU
+from .offset import scene_scale
+
+
+def lets_light_through(m: Material) -> bool:
+    """Shadow rays must look at this material's surfaces one by one (it is transmissive,
+    alpha-tested or emissive; emitters do not cast shadows)."""
+    return m.is_transmissive or m.is_cutout or max(m.emissive) > 0.0 or m.emissive_texture >= 0
+
+
+class Occluders:
+    """The two shadow BVHs of one ``DeviceScene`` (see the module docstring) and its
+    scale ``S`` for ray offsets (``offset.scene_scale``)."""
+
+    def __init__(self, scene: DeviceScene) -> None:
+        """Split ``scene``'s triangles by material and build the BVHs (once)."""
+        self.scene = scene
+        self._gpu_seen = scene.gpu
+        self.scale = scene_scale(scene.scene.bounds)
+        special_mat = np.array([lets_light_through(m) for m in scene.scene.materials] or [False], dtype=bool)
+        tri_mat = np.asarray(scene.scene.triangle_material, dtype=np.int64)
+        special = special_mat[tri_mat] if len(tri_mat) else np.zeros(0, dtype=bool)
+        self.special_count = int(special.sum())
+        indices = np.asarray(scene.scene.indices, dtype=np.int32)
+        dev = scene.device
+        self._meshes: list[wp.Mesh] = []
+        g = OccluderGPU()
+        if self.special_count == 0:
+            g.opaque = wp.uint64(scene.mesh.id if scene.mesh is not None else 0)
+            g.special = wp.uint64(0)
+            faces = np.zeros(1, dtype=np.int32)
+        else:
+            g.opaque = wp.uint64(self._mesh(indices[~special]))
+            g.special = wp.uint64(self._mesh(indices[special]))
+            faces = np.flatnonzero(special).astype(np.int32)
+        self.special_faces = wp.array(faces, dtype=wp.int32, device=dev)
+        g.special_faces = self.special_faces
+        self.gpu = g
+
+    def _mesh(self, tris: np.ndarray) -> int:
+        """A BVH over ``tris`` (T, 3) sharing the scene's points; id 0 when empty."""
+        if len(tris) == 0:
+            return 0
+        idx = wp.array(np.ascontiguousarray(tris.reshape(-1)), dtype=wp.int32, device=self.scene.device)
+        mesh = wp.Mesh(points=self.scene.points, indices=idx)
+        self._meshes.append(mesh)
+        return int(mesh.id)
+
+    def refresh(self) -> None:
+        """Refit the BVHs (and update ``scale``) if the scene's points moved since the
+        last call."""
+        if self.scene.gpu is not self._gpu_seen:
+            for mesh in self._meshes:
+                mesh.refit()
+            self.scale = scene_scale(self.scene.scene.bounds)
+            self._gpu_seen = self.scene.gpu

@@ -29,7 +29,7 @@ def test_render_writes_png_aovs_and_stats(tmp_path: Path, capsys: pytest.Capture
         assert np.load(tmp_path / "aov" / f"{name}.npy").shape == (48, 64, 3)
     stats = json.loads((tmp_path / "stats.json").read_text())
     assert stats["resolution"] == [64, 48] and stats["device"] == "cpu"
-    assert {"raster", "resolve", "lighting", "tonemap", "aa"} <= set(stats["stages_ms"])
+    assert {"raster", "resolve", "surface", "lighting", "tonemap", "aa"} <= set(stats["stages_ms"])
     assert {"load", "upload", "bvh_build"} <= set(stats["setup_ms"])
     assert "img.png" in capsys.readouterr().out
 

@@ -80,7 +80,7 @@ def test_injected_clock_times_every_stage(device: str) -> None:
     with Renderer(scene, RenderSettings(width=W, height=H, device=device), clock=clock) as r:
         frame = r.render(scene.cameras[0])
     stages = frame.stats["stages_ms"]
-    assert {"raster", "resolve", "lighting", "tonemap", "aa"} <= set(stages)
+    assert {"raster", "resolve", "surface", "lighting", "tonemap", "aa"} <= set(stages)
     # each stage reads the clock twice, one tick apart: exactly 1 ms per stage
     assert all(v == pytest.approx(1.0) for v in stages.values())
     assert r.setup_ms == {"upload": pytest.approx(1.0), "bvh_build": pytest.approx(1.0)}

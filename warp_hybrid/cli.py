@@ -121,6 +121,7 @@ def _cmd_render(args: argparse.Namespace) -> int:
     )
     gaze = resolve_gaze(args.gaze, scene)
     with Renderer(scene, settings) as renderer:
+        renderer.warm_up(camera)
         frame = renderer.render(camera, renderer.default_window(gaze))
     frame.stats["setup_ms"] = {"load": load_ms, **frame.stats["setup_ms"]}
     write_png(args.output, frame.image)

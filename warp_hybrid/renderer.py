@@ -169,6 +169,16 @@ class Renderer:
     def __exit__(self, *exc: object) -> None:
         self.close()
 
+    def warm_up(self, camera: Camera) -> float:
+        """Render and discard one frame so every kernel this scene needs is compiled
+        and loaded; the time goes to ``setup_ms["warm_up"]`` (not to a frame's stages)
+        and is returned in ms."""
+        start = self.clock()
+        self.render(camera)
+        elapsed = (self.clock() - start) * 1000.0
+        self.setup_ms["warm_up"] = elapsed
+        return elapsed
+
     def update_scene(self, scene: Scene) -> float:
         """Swap in the same scene at another time (same topology): copy the moved
         points and refit the BVH.  Returns the milliseconds it took."""
@@ -198,7 +208,7 @@ class Renderer:
             self.lighting.shade(self.device_scene, cam, self.gbuffer, self.raster_color, timer)
         if self.tracer is not None:
             trace_stats = self._trace(cam, window or self.default_window(), timer)
-        image = self.post.run(self.color, s.exposure_ev, s.tonemap, s.antialias, timer, self.gbuffer.hit_mask())
+        image = self.post.run(self.color, s.exposure_ev, s.tonemap, s.antialias, timer, self.gbuffer.triangle_id)
         with timer.stage("readback"):
             color = self.color.numpy().astype(np.float32)
             visibility = self.visibility.numpy().astype(np.float32)

@@ -34,7 +34,9 @@ def _unfiltered(img: np.ndarray, uv: np.ndarray) -> np.ndarray:
     def t(c: np.ndarray, r: np.ndarray) -> np.ndarray:
         return img[np.mod(r, n), np.mod(c, n), :3]
 
-    return (t(x0, y0) * (1 - fx) + t(x0 + 1, y0) * fx) * (1 - fy) + (t(x0, y0 + 1) * (1 - fx) + t(x0 + 1, y0 + 1) * fx) * fy
+    top = t(x0, y0) * (1 - fx) + t(x0 + 1, y0) * fx
+    bottom = t(x0, y0 + 1) * (1 - fx) + t(x0 + 1, y0 + 1) * fx
+    return top * (1 - fy) + bottom * fy
 
 
 @pytest.mark.parametrize("path", ["raster", "raycast"])

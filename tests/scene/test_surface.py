@@ -445,13 +445,18 @@ def test_magnified_lookups_are_plain_bilinear(device: str) -> None:
     ds = DeviceScene(_texture_scene(img, [TextureBinding(0)]), device)
     uv = rng.uniform(0.0, 1.0, (40, 2)).astype(np.float32)
     plain = wp.zeros(len(uv), dtype=wp.vec4, device=device)
-    wp.launch(_sample, dim=len(uv), inputs=[ds.gpu, 0, wp.array(uv, dtype=wp.vec2, device=device), plain], device=device)
+    uvs = wp.array(uv, dtype=wp.vec2, device=device)
+    wp.launch(_sample, dim=len(uv), inputs=[ds.gpu, 0, uvs, plain], device=device)
     for lod in (-4.0, -0.5, 0.0):
         np.testing.assert_array_equal(_sample_at_lods(ds, device, uv, np.full(len(uv), lod)), plain.numpy())
-    np.testing.assert_allclose(plain.numpy(), _ref_sample(img, uv, Wrap.REPEAT, Wrap.REPEAT, np.ones(4), np.zeros(4)), atol=2e-5)
+    ref = _ref_sample(img, uv, Wrap.REPEAT, Wrap.REPEAT, np.ones(4), np.zeros(4))
+    np.testing.assert_allclose(plain.numpy(), ref, atol=2e-5)
 
     textured = make_scene(
-        [_triangle_mesh()], [Material("m", diffuse_texture=0)], images=[TextureImage("<img>", img)], textures=[TextureBinding(0)]
+        [_triangle_mesh()],
+        [Material("m", diffuse_texture=0)],
+        images=[TextureImage("<img>", img)],
+        textures=[TextureBinding(0)],
     )
     ds = DeviceScene(textured, device)
     bary = rng.uniform(0.0, 0.5, (20, 2)).astype(np.float32)

@@ -16,7 +16,7 @@ from warp_hybrid.raster.gbuffer import GBuffer
 from warp_hybrid.raster.rasterizer import Rasterizer
 from warp_hybrid.scene.builders import look_at_camera, make_scene, quad, uv_sphere
 from warp_hybrid.scene.device import DeviceScene, make_camera_gpu
-from warp_hybrid.scene.model import Environment, Light, LightKind, Material
+from warp_hybrid.scene.model import Environment, Light, LightKind, Material, SceneFeatures
 from warp_hybrid.timing import StageTimer
 from warp_hybrid.trace import TraceSettings, TraceVariant
 
@@ -124,6 +124,16 @@ def test_without_secondary_rays_the_traced_shading_is_the_raster_shading(device:
     assert np.allclose(out.color[lit], raster.numpy()[lit], rtol=1e-5, atol=1e-6)
     assert np.allclose(out.color[out.triangle_id < 0], raster.numpy()[out.triangle_id < 0])
     assert out.counts.reflection == 0 and out.counts.refraction == 0
+
+
+def test_foreign_list_entries_are_skipped_and_feature_mismatches_rejected(device: str) -> None:
+    scene, cam = _showcase()
+    listed = np.array([5, -1, W * H, W * H + 7, 17], dtype=np.int32)
+    out = trace_scene(scene, cam, device, W, H, pixels=listed, features=ALL_FEATURES)
+    written = np.flatnonzero(np.any(out.color.reshape(-1, 3) != 0.0, axis=1))
+    assert set(written.tolist()) <= {5, 17} and out.counts.traced_pixels == len(listed)
+    with pytest.raises(ValueError, match="reflections, refractions, transparency, environment"):
+        trace_scene(scene, cam, device, W, H, features=SceneFeatures(shadows=True))
 
 
 @pytest.mark.parametrize("bad", [TraceSettings(max_depth=-1), TraceSettings(max_depth=99), TraceSettings(shadow_samples=0)])

@@ -11,7 +11,7 @@ import pytest
 from trace_kit import ALL_FEATURES, box, camera_rays, emissive, trace_scene
 
 from warp_hybrid.scene.builders import MeshInput, look_at_camera, make_scene, quad, uv_sphere
-from warp_hybrid.scene.model import Material
+from warp_hybrid.scene.model import Light, LightKind, Material
 from warp_hybrid.trace import TraceSettings
 
 W, H = 96, 72
@@ -198,3 +198,35 @@ def test_depth_limit_falls_back_to_raster_shading(device: str, max_depth: int) -
     scene = make_scene([a, b], mats, cameras=[cam])
     out = trace_scene(scene, cam, device, W, H, settings=TraceSettings(max_depth=max_depth), features=ALL_FEATURES)
     assert out.counts.reflection == max_depth * W * H
+
+
+def test_mirror_shows_the_floor_with_its_shadows(device: str) -> None:
+    """A periscope mirror: the camera sees the floor (with a ball's shadow) through a
+    45-degree mirror, exactly what a camera at the mirrored eye sees directly (left and
+    right swapped): secondary hits are lit and shadowed like primary ones."""
+    mats = [
+        Material("/floor", diffuse=(0.8, 0.7, 0.6), roughness=0.9),
+        Material("/ball", diffuse=(0.3, 0.5, 0.8), roughness=0.8),
+        Material("/mirror", diffuse=(1.0, 1.0, 1.0), metallic=1.0, roughness=0.0),
+    ]
+    s = math.sqrt(0.5)
+    # mirror through (0, 10, 0) facing (0, -1, 1); the sun comes in low from -x, so
+    # the mirror itself shades none of the floor in view
+    mirror = quad((-3.0, 10.0 - 3.0 * s, -3.0 * s), (6.0, 0.0, 0.0), (0.0, 6.0 * s, 6.0 * s), 2)
+    meshes = [quad((-6.0, 0.0, 6.0), (12.0, 0.0, 0.0), (0.0, 0.0, -12.0), 0), uv_sphere((0.3, 1.0, 0.2), 1.0, 32, 64, 1)]
+    light = Light(LightKind.DISTANT, "/sun", (3.0, 3.0, 3.0), direction=(1.0, -0.6, 0.0))
+    cam = look_at_camera((0.0, 10.0, 6.0), (0.0, 10.0, 0.0), hfov_deg=30.0)
+    virtual = look_at_camera((0.0, 16.0, 0.0), (0.0, 0.0, 0.0), up=(0.0, 0.0, 1.0), hfov_deg=30.0)
+    via_mirror = trace_scene(make_scene(meshes + [mirror], mats, lights=[light]), cam, device, W, H, features=ALL_FEATURES)
+    direct = trace_scene(make_scene(meshes, mats, lights=[light]), virtual, device, W, H, features=ALL_FEATURES)
+    assert np.all(via_mirror.triangle_id >= via_mirror.triangle_id.max() - 1), "the view must see only the mirror"
+    seen = direct.color[:, ::-1]
+    shadowed = direct.visibility[:, ::-1, 0] == 0.0
+    assert 200 < shadowed.sum() < 0.5 * W * H
+    ratio = via_mirror.color.sum(axis=-1) / np.maximum(seen.sum(axis=-1), 1e-9)
+    lit = ~shadowed & (seen.sum(axis=-1) > 0.05)
+    agree = np.abs(ratio[lit] - 1.0) < 0.02
+    assert agree.mean() > 0.98
+    dark = via_mirror.color.sum(axis=-1) < 1e-6
+    assert (dark == shadowed).mean() > 0.98
+    assert via_mirror.counts.shadow > 0.9 * W * H  # the floor seen in the mirror (the mirror faces away from the sun)

@@ -6,6 +6,13 @@ filled one), i.e. emission + direct diffuse/specular + the dome's SH diffuse and
 prefiltered glossy light (+ the raster approximation for transmissive materials).
 Background pixels get the dome's radiance along the camera ray (black without a dome).
 The shadowed and unshadowed variants are two kernels generated from one closure.
+
+CPU performance notes: one kernel launch item is one image row (the launcher's
+``launch_items``), so the big ``SceneGPU``/``AmbientGPU`` arguments are copied once per
+row, not per pixel; every shading function is ``@wp.func(inline=True)`` (out of line,
+each call would copy its struct arguments), with rare heavy paths (spot cones,
+horizon-crossing rect lights) kept out of line; and the module compiles with FMA
+contraction.
 """
 
 from __future__ import annotations
@@ -22,9 +29,8 @@ from .shading import diffuse_albedo, direct_light, shade_surface
 
 # FMA contraction across statements (what CUDA does by default): ~10-20% faster on the
 # CPU; results change by rounding only.
-wp.set_module_options(
-    {"enable_backward": False, "cpu_compiler_flags": f"{wp.config.cpu_compiler_flags or '-march=native'} -ffp-contract=fast"}
-)
+_CPU_FLAGS = f"{wp.config.cpu_compiler_flags or '-march=native'} -ffp-contract=fast"
+wp.set_module_options({"enable_backward": False, "cpu_compiler_flags": _CPU_FLAGS})
 
 
 @wp.func(inline=True)

@@ -3,8 +3,9 @@ well-known restatement of it.
 
 Runs on the tone-mapped 8-bit sRGB image (as FXAA does on a display buffer); luma is
 computed from the sRGB values (``0.299 R + 0.587 G + 0.114 B``).  The tone-mapping pass
-writes that luma of every pixel beside the 8-bit image (``luma_of_codes``), so the
-edge tests and the search below read one float per texel.  Per pixel:
+writes that luma of every pixel beside the 8-bit image (``luma_of_codes``, from a
+256-entry table per channel that reproduces the per-texel arithmetic bit for bit), so
+the edge tests read one float per texel.  Per pixel:
 
 1. Local contrast of the centre and its 4 neighbours; pixels whose luma range is below
    ``max(EDGE_THRESHOLD_MIN, EDGE_THRESHOLD * max luma)`` are returned unchanged (so a
@@ -26,6 +27,7 @@ keeps about 80% of its encoded energy instead of about 69%.
 
 from __future__ import annotations
 
+import numpy as np
 import warp as wp
 
 EDGE_THRESHOLD = wp.constant(0.166)
@@ -33,18 +35,30 @@ EDGE_THRESHOLD_MIN = wp.constant(0.0833)
 SUBPIX = wp.constant(0.5)
 SEARCH_STEPS = wp.constant(12)
 INV_255 = wp.constant(1.0 / 255.0)
+LUMA_WEIGHTS = (0.299, 0.587, 0.114)  # Rec. 601, as FXAA
+LUMA_R = wp.constant(LUMA_WEIGHTS[0])
+LUMA_G = wp.constant(LUMA_WEIGHTS[1])
+LUMA_B = wp.constant(LUMA_WEIGHTS[2])
 
 
 @wp.func(inline=True)
 def luma_srgb(c: wp.vec3) -> float:
     """Luma of an sRGB-encoded colour (Rec. 601 weights, as FXAA)."""
-    return 0.299 * c[0] + 0.587 * c[1] + 0.114 * c[2]
+    return LUMA_R * c[0] + LUMA_G * c[1] + LUMA_B * c[2]
+
+
+def luma_table() -> np.ndarray:
+    """(256, 3) float32: the terms of ``luma_srgb`` for each 8-bit code and channel,
+    ``weight_c * (code * (1 / 255))`` in float32 exactly as the kernels round them."""
+    scaled = np.arange(256, dtype=np.float32) * np.float32(1.0 / 255.0)
+    return np.stack([np.float32(w) * scaled for w in LUMA_WEIGHTS], axis=-1)
 
 
 @wp.func(inline=True)
-def luma_of_codes(r: int, g: int, b: int) -> float:
-    """Luma of the 8-bit sRGB codes (r, g, b), each scaled to [0, 1]."""
-    return luma_srgb(wp.vec3(float(r) * INV_255, float(g) * INV_255, float(b) * INV_255))
+def luma_of_codes(r: int, g: int, b: int, table: wp.array(dtype=wp.vec3)) -> float:
+    """Luma of the 8-bit sRGB codes (r, g, b) (``luma_srgb`` of the texel) from
+    ``luma_table``: the same float32 terms summed in the same order."""
+    return table[r][0] + table[g][1] + table[b][2]
 
 
 @wp.func(inline=True)
@@ -193,9 +207,12 @@ def fxaa_edge(img: wp.array3d(dtype=wp.uint8), luma: wp.array2d(dtype=float), x:
 
 
 @wp.func(inline=True)
-def fxaa_pixel(img: wp.array3d(dtype=wp.uint8), luma: wp.array2d(dtype=float), out: wp.array3d(dtype=wp.uint8), x: int, y: int):
+def fxaa_pixel(
+    img: wp.array3d(dtype=wp.uint8), luma: wp.array2d(dtype=float), out: wp.array3d(dtype=wp.uint8), x: int, y: int
+):
     """Write the anti-aliased 8-bit colour of pixel (x, y) of ``img`` (luma beside it in
-    ``luma``) into ``out``."""
+    ``luma``) into ``out`` if it differs from ``img``'s: ``out`` must start as a copy
+    of ``img`` (pixels below the contrast threshold are left alone)."""
     lc = luma[y, x]
     lu = _luma(luma, x, y - 1)
     ld = _luma(luma, x, y + 1)
@@ -204,10 +221,7 @@ def fxaa_pixel(img: wp.array3d(dtype=wp.uint8), luma: wp.array2d(dtype=float), o
     lmin = wp.min(lc, wp.min(wp.min(lu, ld), wp.min(ll, lr)))
     lmax = wp.max(lc, wp.max(wp.max(lu, ld), wp.max(ll, lr)))
     rng = lmax - lmin
-    if rng < wp.max(EDGE_THRESHOLD_MIN, lmax * EDGE_THRESHOLD):
-        for k in range(3):
-            out[y, x, k] = img[y, x, k]
-    else:
+    if rng >= wp.max(EDGE_THRESHOLD_MIN, lmax * EDGE_THRESHOLD):
         c = fxaa_edge(img, luma, x, y, lc, lu, ld, ll, lr, rng)
         for k in range(3):
             out[y, x, k] = wp.uint8(int(wp.clamp(c[k], 0.0, 1.0) * 255.0 + 0.5))

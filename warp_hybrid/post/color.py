@@ -79,6 +79,6 @@ def srgb_quantize(x: float, enc: Srgb8Encoder) -> int:
     without a ``pow`` or a branch: clamp to [0, 1] (NaN -> 0), take the code at the
     start of x's table cell, plus one if x is past the single step a cell can contain
     (cells are narrower than any step; the +inf threshold stops code 255)."""
-    xc = wp.clamp(x, 0.0, 1.0)
+    xc = wp.where(x > 0.0, wp.where(x < 1.0, x, 1.0), 0.0)
     cell = enc.cells[int(xc * float(SRGB_LUT_SIZE))]
     return int(cell[0]) + wp.where(xc >= cell[1], 1, 0)

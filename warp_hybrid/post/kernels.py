@@ -17,9 +17,10 @@ from .tonemap import OPERATORS
 wp.set_module_options({"enable_backward": False})
 
 LOG_DELTA_WP = wp.constant(LOG_DELTA)
-LUMA_R = wp.constant(LUMA_709[0])
-LUMA_G = wp.constant(LUMA_709[1])
-LUMA_B = wp.constant(LUMA_709[2])
+Y709_R = wp.constant(LUMA_709[0])
+Y709_G = wp.constant(LUMA_709[1])
+Y709_B = wp.constant(LUMA_709[2])
+FLOAT_MAX = wp.constant(3.4028234663852886e38)
 
 MASK_NONE = "none"
 MASK_BOOL = "bool"
@@ -46,8 +47,8 @@ def _make_log_luminance_kernel(mask_kind: str) -> wp.Kernel:
         count = int(0)
         for x in range(color.shape[1]):
             c = color[y, x]
-            lum = c[0] * LUMA_R + c[1] * LUMA_G + c[2] * LUMA_B
-            take = wp.abs(lum) <= 3.4028234663852886e38  # finite (an inline test; wp.isfinite is a call)
+            lum = c[0] * Y709_R + c[1] * Y709_G + c[2] * Y709_B
+            take = wp.abs(lum) <= FLOAT_MAX  # finite (wp.isfinite is an out-of-line call)
             if wp.static(mask_kind == MASK_NONE):
                 take = take and lum > 0.0
             elif wp.static(mask_kind == MASK_BOOL):
@@ -68,7 +69,7 @@ LOG_LUMINANCE_KERNELS = {kind: _make_log_luminance_kernel(kind) for kind in (MAS
 
 def _make_tonemap_kernel(operator: wp.Function, with_luma: bool) -> wp.Kernel:
     """Exposure, ``operator``, then the exact 8-bit sRGB code per channel; with
-    ``with_luma`` also the FXAA luma of the codes."""
+    ``with_luma`` also the FXAA luma of the codes (``luma_lut`` = ``aa.luma_table()``)."""
 
     @wp.kernel
     def tonemap_rows(
@@ -76,6 +77,7 @@ def _make_tonemap_kernel(operator: wp.Function, with_luma: bool) -> wp.Kernel:
         scale: float,
         encoder: Srgb8Encoder,
         out: wp.array3d(dtype=wp.uint8),
+        luma_lut: wp.array(dtype=wp.vec3),
         luma: wp.array2d(dtype=float),
         row0: int,
         row_step: int,
@@ -90,12 +92,16 @@ def _make_tonemap_kernel(operator: wp.Function, with_luma: bool) -> wp.Kernel:
             out[y, x, 1] = wp.uint8(g)
             out[y, x, 2] = wp.uint8(b)
             if wp.static(with_luma):
-                luma[y, x] = luma_of_codes(r, g, b)
+                luma[y, x] = luma_of_codes(r, g, b, luma_lut)
 
     return tonemap_rows
 
 
-TONEMAP_KERNELS = {(name, with_luma): _make_tonemap_kernel(op, with_luma) for name, op in OPERATORS.items() for with_luma in (False, True)}
+TONEMAP_KERNELS = {
+    (name, with_luma): _make_tonemap_kernel(op, with_luma)
+    for name, op in OPERATORS.items()
+    for with_luma in (False, True)
+}
 
 
 @wp.kernel
@@ -106,7 +112,8 @@ def fxaa_rows(
     row0: int,
     row_step: int,
 ):
-    """FXAA over the 8-bit sRGB image ``ldr`` (its luma in ``luma``) into ``out``."""
+    """FXAA over the 8-bit sRGB image ``ldr`` (its luma in ``luma``) into ``out``, which
+    holds a copy of ``ldr`` (only the edge pixels are written)."""
     y = row0 + wp.tid() * row_step
     for x in range(ldr.shape[1]):
         fxaa_pixel(ldr, luma, out, x, y)

@@ -7,6 +7,7 @@ import warp as wp
 
 from ..parallel import Launcher
 from ..timing import StageTimer
+from .aa import luma_table
 from .color import make_srgb8_encoder
 from .exposure import ev_from_log_sum
 from .kernels import LOG_LUMINANCE_KERNELS, MASK_BOOL, MASK_ID, MASK_NONE, TONEMAP_KERNELS, fxaa_rows
@@ -24,6 +25,7 @@ class PostProcess:
         self.last_exposure_ev = 0.0
         self._buffers: dict[str, wp.array] = {}
         self._encoder = make_srgb8_encoder(launcher.device)
+        self._luma_lut = wp.array(luma_table(), dtype=wp.vec3, device=launcher.device)
         launcher.ensure_loaded(fxaa_rows)  # compiles the post module (all its kernels) up front
 
     def _targets(self, height: int, width: int) -> dict[str, wp.array]:
@@ -88,11 +90,11 @@ class PostProcess:
         with timer.stage("tonemap"):
             ev = float(exposure_ev) if exposure_ev is not None else self.auto_exposure(color, hit_mask)
             self.last_exposure_ev = ev
-            self.launcher.launch_items(
-                TONEMAP_KERNELS[(tonemap, aa)], h, [color, 2.0**ev, self._encoder, buffers["ldr"], buffers["luma"]]
-            )
+            inputs = [color, 2.0**ev, self._encoder, buffers["ldr"], self._luma_lut, buffers["luma"]]
+            self.launcher.launch_items(TONEMAP_KERNELS[(tonemap, aa)], h, inputs)
         if not aa:
             return np.array(buffers["ldr"].numpy(), copy=True)
         with timer.stage("aa"):
+            wp.copy(buffers["smoothed"], buffers["ldr"])
             self.launcher.launch_items(fxaa_rows, h, [buffers["ldr"], buffers["luma"], buffers["smoothed"]])
         return np.array(buffers["smoothed"].numpy(), copy=True)

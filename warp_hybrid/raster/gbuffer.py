@@ -27,6 +27,8 @@ class GBuffer:
     optics: (reflectivity, ior, opacity, roughness); reflectivity is the Fresnel
     reflectance at normal incidence (luminance of F0).
     material_id / triangle_id: -1 for background.
+    barycentric: Warp's (u, v) of the hit on ``triangle_id`` (the visibility record the
+    surface pass evaluates attributes from).
     """
 
     width: int
@@ -41,6 +43,7 @@ class GBuffer:
     optics: wp.array
     material_id: wp.array
     triangle_id: wp.array
+    barycentric: wp.array
 
     @staticmethod
     def allocate(width: int, height: int, device: wp.context.Device | str) -> GBuffer:
@@ -63,6 +66,7 @@ class GBuffer:
             optics=wp.zeros(shape, dtype=wp.vec4, device=device),
             material_id=wp.full(shape, value=-1, dtype=wp.int32, device=device),
             triangle_id=wp.full(shape, value=-1, dtype=wp.int32, device=device),
+            barycentric=wp.zeros(shape, dtype=wp.vec2, device=device),
         )
 
     def clear(self) -> None:
@@ -70,7 +74,16 @@ class GBuffer:
         self.depth.fill_(float("inf"))
         self.material_id.fill_(-1)
         self.triangle_id.fill_(-1)
-        for a in (self.position, self.normal, self.geometric_normal, self.albedo, self.specular, self.emission, self.optics):
+        for a in (
+            self.position,
+            self.normal,
+            self.geometric_normal,
+            self.albedo,
+            self.specular,
+            self.emission,
+            self.optics,
+            self.barycentric,
+        ):
             a.zero_()
 
     def hit_mask(self) -> np.ndarray:

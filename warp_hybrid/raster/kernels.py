@@ -77,6 +77,7 @@ class GBufferArrays:
     optics: wp.array2d(dtype=wp.vec4)
     material_id: wp.array2d(dtype=wp.int32)
     triangle_id: wp.array2d(dtype=wp.int32)
+    barycentric: wp.array2d(dtype=wp.vec2)
 
 
 @wp.func_native("""union { float f; unsigned int u; } c; c.f = x; return (uint64_t)c.u;""")
@@ -495,6 +496,15 @@ class GBufferRows:
     optics: wp.array(dtype=wp.vec4)
     material_id: wp.array(dtype=wp.int32)
     triangle_id: wp.array(dtype=wp.int32)
+    barycentric: wp.array(dtype=wp.vec2)
+
+
+@wp.func(inline=True)
+def _write_visibility(gb: GBufferRows, i: int, tri: int, t: float, bu: float, bv: float):
+    """The visibility record of a pixel: which triangle, how deep, where on it."""
+    gb.triangle_id[i] = tri
+    gb.depth[i] = t
+    gb.barycentric[i] = wp.vec2(bu, bv)
 
 
 @wp.func(inline=True)
@@ -510,6 +520,7 @@ def _write_background(gb: GBufferRows, i: int):
     gb.optics[i] = wp.vec4(0.0, 0.0, 0.0, 0.0)
     gb.material_id[i] = -1
     gb.triangle_id[i] = -1
+    gb.barycentric[i] = wp.vec2(0.0, 0.0)
 
 
 @wp.func(inline=True)
@@ -527,13 +538,12 @@ def _write_hit(
     scene: SceneGPU,
     cam: CameraGPU,
     tri: int,
-    t: float,
     bu: float,
     bv: float,
     d: wp.vec3,
 ):
     """Evaluate the surface (textures filtered over the pixel's footprint) and store
-    it at flat index ``i``; ``t`` is the view depth (``d`` has unit forward component)."""
+    its attributes at flat index ``i`` (``d`` is the camera ray, unit forward component)."""
     footprint = wp.vec4(0.0, 0.0, 0.0, 0.0)
     if _textured(scene, tri):
         footprint = pixel_footprint(scene, cam, tri, d)
@@ -541,14 +551,12 @@ def _write_hit(
     gb.position[i] = h.position
     gb.normal[i] = h.normal
     gb.geometric_normal[i] = h.geometric_normal
-    gb.depth[i] = t
     gb.albedo[i] = h.albedo
     gb.specular[i] = h.specular
     gb.emission[i] = h.emission
     reflectivity = 0.2126 * h.specular[0] + 0.7152 * h.specular[1] + 0.0722 * h.specular[2]
     gb.optics[i] = wp.vec4(reflectivity, h.ior, h.opacity, h.roughness)
     gb.material_id[i] = h.material
-    gb.triangle_id[i] = tri
 
 
 @wp.kernel
@@ -560,7 +568,8 @@ def resolve_kernel(
     row0: int,
     row_step: int,
 ):
-    """Per pixel: the nearest key over all visibility slices -> exact hit -> G-buffer."""
+    """Per pixel: the nearest key over all visibility slices -> exact hit -> the
+    visibility record (triangle, depth, barycentrics); ``surface_kernel`` does the rest."""
     r, x = wp.tid()
     y = row0 + r * row_step
     i = y * cam.width + x
@@ -579,13 +588,13 @@ def resolve_kernel(
         # Grazing: the ray runs (numerically) in the triangle's plane.
         p = pts[0] * h[1] + pts[1] * h[2] + pts[2] * (1.0 - h[1] - h[2])
         t = wp.dot(p - cam.origin, cam.forward)
-    _write_hit(gb, i, scene, cam, tri, t, h[1], h[2], d)
+    _write_visibility(gb, i, tri, t, h[1], h[2])
 
 
 @wp.kernel
 def raycast_kernel(scene: SceneGPU, cam: CameraGPU, gb: GBufferRows, row0: int, row_step: int):
     """Per pixel: closest ``wp.mesh_query_ray`` hit between the near and far planes,
-    stepping past hits in cut-out holes."""
+    stepping past hits in cut-out holes -> the visibility record."""
     r, x = wp.tid()
     y = row0 + r * row_step
     i = y * cam.width + x
@@ -600,10 +609,26 @@ def raycast_kernel(scene: SceneGPU, cam: CameraGPU, gb: GBufferRows, row0: int, 
             break
         t = t_base + q.t
         if not is_cut_away(scene, q.face, q.u, q.v):
-            _write_hit(gb, i, scene, cam, q.face, t, q.u, q.v, d)
+            _write_visibility(gb, i, q.face, t, q.u, q.v)
             return
         t_base = t + 1.0e-5 * t
     _write_background(gb, i)
+
+
+@wp.kernel
+def surface_kernel(scene: SceneGPU, cam: CameraGPU, gb: GBufferRows, row0: int, row_step: int):
+    """Per pixel: evaluate the surface named by the visibility record (whichever
+    primary path wrote it) into the remaining G-buffer attributes."""
+    r, x = wp.tid()
+    y = row0 + r * row_step
+    i = y * cam.width + x
+    tri = gb.triangle_id[i]
+    if tri < 0:
+        _write_background(gb, i)
+        return
+    d = camera_ray_dir(cam, float(x) + 0.5, float(y) + 0.5)
+    b = gb.barycentric[i]
+    _write_hit(gb, i, scene, cam, tri, b[0], b[1], d)
 
 
 def gbuffer_rows(gbuffer) -> GBufferRows:
@@ -621,6 +646,7 @@ def gbuffer_rows(gbuffer) -> GBufferRows:
         "optics",
         "material_id",
         "triangle_id",
+        "barycentric",
     ):
         setattr(s, name, getattr(gbuffer, name).reshape((-1,)))
     return s
@@ -639,4 +665,5 @@ def gbuffer_arrays(gbuffer) -> GBufferArrays:
     s.optics = gbuffer.optics
     s.material_id = gbuffer.material_id
     s.triangle_id = gbuffer.triangle_id
+    s.barycentric = gbuffer.barycentric
     return s

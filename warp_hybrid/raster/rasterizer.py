@@ -1,6 +1,6 @@
 """Raster primary visibility: visibility buffer of depth|triangle keys, then resolve.
 
-``Rasterizer.render`` runs two timed stages:
+``Rasterizer.render`` runs three timed stages:
 
 * ``raster``: the points are transformed once (``kernels.camera_points_kernel``),
   then every triangle is rasterized into a visibility buffer of packed 64-bit
@@ -10,9 +10,11 @@
   split between the launcher's threads and each thread owns one slice of the
   buffer; the resolve pass takes the minimum over the slices (no merge pass).
 * ``resolve``: per pixel, the winning triangle is intersected with the pixel's
-  camera ray for exact depth and barycentrics and its surface is evaluated, textures
-  filtered (trilinear mip mapping) over the pixel's footprint
-  (``kernels.resolve_kernel``).
+  camera ray for exact depth and barycentrics: the visibility record
+  (``kernels.resolve_kernel``), the same one the ray-cast path writes.
+* ``surface``: shared with the ray-cast path (``evaluate_surfaces``): per pixel the
+  record's surface is evaluated, textures filtered (trilinear mip mapping) over the
+  pixel's footprint (``kernels.surface_kernel``).
 """
 
 from __future__ import annotations
@@ -34,6 +36,16 @@ def check_size(camera: CameraGPU, gbuffer: GBuffer) -> None:
     if (camera.width, camera.height) != (gbuffer.width, gbuffer.height):
         raise ValueError(
             f"camera is for {camera.width}x{camera.height} but the G-buffer is {gbuffer.width}x{gbuffer.height}"
+        )
+
+
+def evaluate_surfaces(launcher: Launcher, scene: DeviceScene, camera: CameraGPU, gbuffer: GBuffer, timer: StageTimer) -> None:
+    """The attribute pass both primary paths share (stage "surface"): from each
+    pixel's visibility record (triangle, depth, barycentrics) evaluate the material
+    and write every other G-buffer attribute."""
+    with timer.stage("surface"):
+        launcher.launch_rows(
+            kernels.surface_kernel, gbuffer.height, gbuffer.width, [scene.gpu, camera, kernels.gbuffer_rows(gbuffer)]
         )
 
 
@@ -96,6 +108,7 @@ class Rasterizer:
                 gbuffer.width,
                 [scene.gpu, camera, vis, kernels.gbuffer_rows(gbuffer)],
             )
+        evaluate_surfaces(self.launcher, scene, camera, gbuffer, timer)
 
     def overdraw(self, scene: DeviceScene, camera: CameraGPU) -> np.ndarray:
         """Diagnostic: (height, width) int64 count of rasterized fragments per pixel

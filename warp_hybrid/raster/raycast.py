@@ -2,7 +2,7 @@
 
 One ``wp.mesh_query_ray`` per pixel centre, from the near plane to the far plane,
 stepping past hits in alpha cut-out holes; fills the same ``GBuffer`` as
-``Rasterizer`` (stage "raycast").
+``Rasterizer`` (stage "raycast", then the shared attribute pass, stage "surface").
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from ..scene.device import CameraGPU, DeviceScene
 from ..timing import StageTimer
 from . import kernels
 from .gbuffer import GBuffer
-from .rasterizer import check_size
+from .rasterizer import check_size, evaluate_surfaces
 
 
 class RayCaster:
@@ -32,3 +32,4 @@ class RayCaster:
                 gbuffer.width,
                 [scene.gpu, camera, kernels.gbuffer_rows(gbuffer)],
             )
+        evaluate_surfaces(self.launcher, scene, camera, gbuffer, timer)

@@ -432,6 +432,8 @@ def shadow_kernel(layered: bool, soft: bool, cutouts: bool) -> wp.Kernel:
     ):
         item = start + wp.tid() * step
         pixel = pixels[item]
+        if pixel < 0 or pixel >= cam.width * cam.height:
+            return
         y = pixel_row(pixel, cam.width)
         x = pixel - y * cam.width
         if gb.triangle_id[y, x] < 0:
@@ -599,6 +601,8 @@ def shade_kernel(variant: TraceVariant) -> wp.Kernel:
     ):
         item = start + wp.tid() * step
         pixel = pixels[item]
+        if pixel < 0 or pixel >= cam.width * cam.height:
+            return
         y = pixel_row(pixel, cam.width)
         x = pixel - y * cam.width
         zero = wp.vec3(0.0, 0.0, 0.0)

@@ -33,6 +33,10 @@ from . import kernels
 from .occluders import Occluders
 
 
+# The SceneFeatures flags that select kernel code (textures need none).
+TRACED_FEATURES = ("shadows", "reflections", "refractions", "transparency", "environment", "emission", "cutouts")
+
+
 @dataclass
 class TraceSettings:
     """How much tracing a pixel gets.
@@ -137,8 +141,16 @@ class Tracer:
         p.seed = self.settings.seed
         return p
 
+    def _check_features(self, scene: DeviceScene) -> None:
+        """The compiled variant must cover every effect the scene needs."""
+        missing = [name for name in scene.features.names() if name in TRACED_FEATURES and not getattr(self.features, name)]
+        if missing:
+            raise ValueError(f"{scene.scene.path}: the tracer was built without {', '.join(missing)}, which the scene needs")
+
     @staticmethod
-    def _check(gbuffer: GBuffer, camera: CameraGPU, pixels: wp.array, count: int, color_out: wp.array, visibility_out: wp.array, lights: int) -> None:
+    def _check(
+        gbuffer: GBuffer, camera: CameraGPU, pixels: wp.array, count: int, color_out: wp.array, visibility_out: wp.array, lights: int
+    ) -> None:
         h, w = gbuffer.height, gbuffer.width
         if (camera.width, camera.height) != (w, h):
             raise ValueError(f"camera is for {camera.width}x{camera.height} but the G-buffer is {w}x{h}")
@@ -164,9 +176,14 @@ class Tracer:
 
         Writes ``color_out[y, x]`` (traced linear radiance) for each listed pixel and,
         where it hit a surface, ``visibility_out[y, x, i]`` (luminance of the RGB
-        transmittance toward light i, in [0, 1]); other pixels are untouched.  Stages
-        "trace_shadow" and "trace_secondary" go to ``timer``."""
+        transmittance toward light i, in [0, 1]; 0 also where the light cannot reach the
+        point at all); other pixels, and list entries outside the image, are
+        untouched.  Stages "trace_shadow" and "trace_secondary" go to ``timer`` (and
+        "trace_setup" when the shadow BVHs are built, on the first call for a scene).
+        Raises ``ValueError`` on mismatched shapes or a scene needing effects the
+        tracer was not built for."""
         lights = scene.gpu.light_count
+        self._check_features(scene)
         self._check(gbuffer, camera, pixels, count, color_out, visibility_out, lights)
         if count == 0:
             return RayCounts(0, 0, 0, 0)

@@ -75,3 +75,22 @@ def test_not_usd_file_is_a_clear_error(tmp_path: Path, capsys: pytest.CaptureFix
     err = capsys.readouterr().err
     assert str(bad) in err
     assert not (tmp_path / "x.png").exists()
+
+
+def test_hybrid_gaze_from_the_shipped_trace(tmp_path: Path) -> None:
+    stats_path = tmp_path / "s.json"
+    code = main(["render", str(CORNELL), "-o", str(tmp_path / "h.png"), "--size", "64x48", "--mode", "hybrid",
+                 "--gaze", f"trace:{ROOT / 'scenes' / 'traces' / 'demo_gaze.csv'}", "--window", "0.3",
+                 "--stats-json", str(stats_path)])
+    assert code == 0
+    stats = json.loads(stats_path.read_text())
+    assert stats["mode"] == "hybrid"
+    assert stats["window"]["gaze"] == pytest.approx([0.3608, 0.6618], abs=1e-3)  # the trace at t = 0
+    assert stats["rays"]["traced_pixels"] == stats["window"]["pixels"] > 0
+    assert stats["rays"]["shadow"] > 0 and {"trace_shadow", "trace_secondary", "compose"} <= set(stats["stages_ms"])
+
+
+def test_bad_gaze_is_a_clear_error(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    assert main(["render", str(CORNELL), "-o", str(tmp_path / "x.png"), "--gaze", "trace:nope.csv"]) == 2
+    assert "nope.csv" in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []

@@ -55,7 +55,7 @@ def measure(folder: Path, suffix: str, seed: int, haar_every_frame: bool) -> dic
     """Render, calibrate and score one codec; returns a JSON-ready dict."""
     targets = synthetic.calibration_targets()
     cal = synthetic.render_video(folder / f"calibration{suffix}", targets, 4.5, seed=seed)
-    test = synthetic.render_video(folder / f"test{suffix}", synthetic.test_targets(), 6.0, seed=seed + 1)
+    test = synthetic.render_video(folder / f"test{suffix}", synthetic.evaluation_targets(), 6.0, seed=seed + 1)
 
     def tracker() -> FaceTracker | None:
         return HaarEveryFrame() if haar_every_frame else None

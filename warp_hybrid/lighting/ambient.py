@@ -38,6 +38,7 @@ from ..scene.environment import (
     dome_texture_radiance,
     environment_radiance,
     environment_uv_wp,
+    latlong_bilinear,
     sh_constant_coefficients,
     sh_irradiance_coefficients,
 )
@@ -234,27 +235,7 @@ def dome_irradiance(scene: SceneGPU, amb: AmbientGPU, n: wp.vec3) -> wp.vec3:
 def _mip_fetch(amb: AmbientGPU, level: int, uv: wp.vec2) -> wp.vec3:
     """Bilinear fetch from mip ``level`` (1-based) at lat-long ``uv`` (wrap u, clamp v)."""
     k = level - 1
-    w = amb.mip_width[k]
-    h = amb.mip_height[k]
-    x = uv[0] * float(w) - 0.5
-    y = (1.0 - uv[1]) * float(h) - 0.5
-    x0f = wp.floor(x)
-    y0f = wp.floor(y)
-    fx = x - x0f
-    fy = y - y0f
-    x0 = int(x0f)
-    if x0 < 0:
-        x0 += w
-    elif x0 >= w:
-        x0 -= w
-    x1 = x0 + 1
-    if x1 >= w:
-        x1 = 0
-    r0 = amb.mip_offset[k] + wp.clamp(int(y0f), 0, h - 1) * w
-    r1 = amb.mip_offset[k] + wp.clamp(int(y0f) + 1, 0, h - 1) * w
-    top = amb.mip_texels[r0 + x0] * (1.0 - fx) + amb.mip_texels[r0 + x1] * fx
-    bottom = amb.mip_texels[r1 + x0] * (1.0 - fx) + amb.mip_texels[r1 + x1] * fx
-    return top * (1.0 - fy) + bottom * fy
+    return latlong_bilinear(amb.mip_texels, amb.mip_offset[k], amb.mip_width[k], amb.mip_height[k], uv)
 
 
 @wp.func(inline=True)

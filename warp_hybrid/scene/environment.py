@@ -24,6 +24,7 @@ irradiance (Ramamoorthi & Hanrahan 2001) for the raster ambient term.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 import warp as wp
@@ -160,9 +161,10 @@ def environment_uv_wp(d: wp.vec3) -> wp.vec2:
 
 
 @wp.func(inline=True)
-def latlong_bilinear(texels: wp.array(dtype=wp.vec4), offset: int, width: int, height: int, uv: wp.vec2) -> wp.vec4:
+def latlong_bilinear(texels: wp.array(dtype=Any), offset: int, width: int, height: int, uv: wp.vec2):
     """Bilinear fetch from a lat-long image stored row-major from its top row at
-    ``texels[offset:]``: wraps in u, clamps in v (USD uv in [0, 1], v = 1 at the top)."""
+    ``texels[offset:]`` (any texel type: vec4 dome texels, vec3 mip levels): wraps in
+    u, clamps in v (USD uv in [0, 1], v = 1 at the top)."""
     x = uv[0] * float(width) - 0.5
     y = (1.0 - uv[1]) * float(height) - 0.5
     x0f = wp.floor(x)

@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import resource
 import statistics
+import subprocess
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -46,3 +48,39 @@ def median_ms(fn: Callable[[], dict[str, float]], repeats: int = 5, warmup: int 
 def peak_rss_mb() -> float:
     """Peak resident set size of this process in MiB (Linux ru_maxrss is in KiB)."""
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+def run_per_scene(
+    description: str, script: str, measure: Callable[[str, int, int, int], dict]
+) -> tuple[argparse.Namespace, int, int, dict[str, dict]]:
+    """The shared driver of the scene benchmarks.
+
+    Parses ``--scenes``, ``--size``, ``--repeats`` and ``--json``; run with the hidden
+    ``--one PATH`` it measures that scene in this process, prints the JSON and exits;
+    otherwise it runs ``script --one`` once per manifest scene in its own subprocess
+    (so peak RSS is per scene) and returns (args, width, height, results by name).
+    A scene whose subprocess fails is reported on stderr and left out.
+    """
+    ap = argparse.ArgumentParser(description=description)
+    ap.add_argument("--scenes", nargs="*", default=None, help="manifest names (default: all)")
+    ap.add_argument("--size", default="640x480")
+    ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--json", default=None, help="also write the results here")
+    ap.add_argument("--one", default=None, help=argparse.SUPPRESS)
+    args = ap.parse_args()
+    width, height = (int(v) for v in args.size.split("x"))
+    if args.one:
+        print(json.dumps(measure(args.one, width, height, args.repeats)))
+        sys.exit(0)
+    results = {}
+    for entry in manifest_scenes(args.scenes):
+        proc = subprocess.run(
+            [sys.executable, script, "--one", entry["path"], "--size", args.size, "--repeats", str(args.repeats)],
+            capture_output=True,
+            text=True,
+        )
+        if proc.returncode != 0:
+            print(f"{entry['name']}: failed\n{proc.stderr[-2000:]}", file=sys.stderr)
+            continue
+        results[entry["name"]] = json.loads(proc.stdout.strip().splitlines()[-1])
+    return args, width, height, results

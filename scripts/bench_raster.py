@@ -15,14 +15,12 @@ Each scene runs in its own subprocess so its peak RSS is its own.
 
 from __future__ import annotations
 
-import argparse
-import json
 import subprocess
 import sys
 import tempfile
 import time
 
-from bench_common import ROOT, manifest_scenes, median_ms, peak_rss_mb
+from bench_common import ROOT, manifest_scenes, median_ms, peak_rss_mb, run_per_scene
 
 
 def measure_scene(path: str, width: int, height: int, repeats: int) -> dict:
@@ -31,7 +29,6 @@ def measure_scene(path: str, width: int, height: int, repeats: int) -> dict:
 
     from warp_hybrid.parallel import Launcher
     from warp_hybrid.raster.gbuffer import GBuffer
-    from warp_hybrid.raster.rasterizer import Rasterizer
     from warp_hybrid.raster.raycast import RayCaster
     from warp_hybrid.renderer import Renderer, RenderSettings
     from warp_hybrid.runtime import init_warp
@@ -103,24 +100,7 @@ def cold_start(path: str, width: int, height: int) -> float:
 
 def main() -> None:
     """Run the benchmark and print a markdown table."""
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--scenes", nargs="*", default=None, help="manifest names (default: all)")
-    ap.add_argument("--size", default="640x480")
-    ap.add_argument("--repeats", type=int, default=5)
-    ap.add_argument("--json", default=None, help="also write the results here")
-    ap.add_argument("--one", default=None, help=argparse.SUPPRESS)
-    args = ap.parse_args()
-    width, height = (int(v) for v in args.size.split("x"))
-    if args.one:
-        print(json.dumps(measure_scene(args.one, width, height, args.repeats)))
-        return
-    results = {}
-    for entry in manifest_scenes(args.scenes):
-        out = subprocess.run(
-            [sys.executable, __file__, "--one", entry["path"], "--size", args.size, "--repeats", str(args.repeats)],
-            capture_output=True, text=True, check=True,
-        )
-        results[entry["name"]] = json.loads(out.stdout.strip().splitlines()[-1])
+    args, width, height, results = run_per_scene(__doc__.splitlines()[0], __file__, measure_scene)
     biggest = max(manifest_scenes(args.scenes), key=lambda e: e["triangles"])
     cold = cold_start(biggest["path"], width, height)
     cols = ["triangles", "load_ms", "bvh_build_ms", "raster_ms", "resolve_ms", "surface_ms", "lighting_ms", "raycast_ms"]

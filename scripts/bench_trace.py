@@ -12,12 +12,8 @@ threads, to check the launch layer's scaling.  Each scene runs in its own subpro
 
 from __future__ import annotations
 
-import argparse
-import json
-import subprocess
-import sys
 
-from bench_common import manifest_scenes, median_ms
+from bench_common import median_ms, run_per_scene
 
 TRACE_STAGES = ("trace_shadow", "trace_secondary")
 
@@ -62,27 +58,7 @@ def measure_scene(path: str, width: int, height: int, repeats: int) -> dict:
 
 def main() -> None:
     """Run the benchmark and print the tables."""
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--scenes", nargs="*", default=None, help="manifest names (default: all)")
-    ap.add_argument("--size", default="640x480")
-    ap.add_argument("--repeats", type=int, default=5)
-    ap.add_argument("--json", default=None)
-    ap.add_argument("--one", default=None, help=argparse.SUPPRESS)
-    args = ap.parse_args()
-    width, height = (int(v) for v in args.size.split("x"))
-    if args.one:
-        print(json.dumps(measure_scene(args.one, width, height, args.repeats)))
-        return
-    results = {}
-    for entry in manifest_scenes(args.scenes):
-        proc = subprocess.run(
-            [sys.executable, __file__, "--one", entry["path"], "--size", args.size, "--repeats", str(args.repeats)],
-            capture_output=True, text=True,
-        )
-        if proc.returncode != 0:
-            print(f"{entry['name']}: failed\n{proc.stderr[-2000:]}", file=sys.stderr)
-            continue
-        results[entry["name"]] = json.loads(proc.stdout.strip().splitlines()[-1])
+    args, width, height, results = run_per_scene(__doc__.splitlines()[0], __file__, measure_scene)
     print("| scene | triangles | DS fps | RT fps | HRT fps (25%) | HRT vs RT | shadow Mrays/s | secondary Mrays/s | trace 2 vs 1 thread |")
     print("|---|---|---|---|---|---|---|---|---|")
     for name, r in results.items():

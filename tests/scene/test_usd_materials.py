@@ -119,7 +119,7 @@ def test_texture_channels_scale_bias_wrap_and_uv_set(tmp_path):
     bind(mesh, mat)
     scene = save_and_load(stage, path)
     m = _material_of(scene, "/World/Q")
-    da, op = scene.textures[m.diffuse_texture], scene.textures[m.opacity_texture]
+    da = scene.textures[m.diffuse_texture]
     assert m.diffuse_texture == m.opacity_texture  # one binding for one texture node
     assert (da.wrap_s, da.wrap_t) == (Wrap.CLAMP, Wrap.MIRROR)
     assert da.scale == (2, 2, 2, 1) and da.bias == pytest.approx((0.1, 0.1, 0.1, 0.0))

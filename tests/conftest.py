@@ -11,6 +11,8 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 os.environ.setdefault("WARP_HYBRID_KERNEL_CACHE", str(ROOT / "build" / "warp-cache"))
 
+from scene_paths import shared_scenes_dir  # noqa: E402
+
 from warp_hybrid.runtime import init_warp  # noqa: E402
 
 init_warp()
@@ -26,11 +28,6 @@ def _test_devices() -> list[str]:
 def device(request: pytest.FixtureRequest) -> str:
     """The Warp device a test runs on."""
     return request.param
-
-
-def shared_scenes_dir() -> Path:
-    """``WARP_HYBRID_SHARED_SCENES`` or ``../shared/scenes`` next to the checkout."""
-    return Path(os.environ.get("WARP_HYBRID_SHARED_SCENES", ROOT.parent / "shared" / "scenes"))
 
 
 @pytest.fixture(scope="session")

@@ -619,6 +619,21 @@ def _write_hit(
     gb.material_id[i] = h.material
 
 
+@wp.func(inline=True)
+def _write_exact_hit(gb: GBufferRows, i: int, scene: SceneGPU, cam: CameraGPU, tri: int, d: wp.vec3):
+    """The visibility record of camera ray ``d`` (unit forward component) on triangle
+    ``tri``, intersected exactly from the camera origin (both primary paths use it, so
+    their depths and barycentrics come from the same arithmetic)."""
+    pts = _triangle_points(scene, tri)
+    h = ray_triangle(cam.origin, d, pts[0], pts[1], pts[2])
+    t = h[0]
+    if h[3] == 0.0 or not (t > 0.0):
+        # Grazing: the ray runs (numerically) in the triangle's plane.
+        p = pts[0] * h[1] + pts[1] * h[2] + pts[2] * (1.0 - h[1] - h[2])
+        t = wp.dot(p - cam.origin, cam.forward)
+    _write_visibility(gb, i, tri, t, h[1], h[2])
+
+
 @wp.kernel
 def resolve_kernel(
     scene: SceneGPU,
@@ -641,14 +656,7 @@ def resolve_kernel(
         return
     tri = int(key & wp.uint64(0xFFFFFFFF))
     d = camera_ray_dir(cam, float(x) + 0.5, float(y) + 0.5)
-    pts = _triangle_points(scene, tri)
-    h = ray_triangle(cam.origin, d, pts[0], pts[1], pts[2])
-    t = h[0]
-    if h[3] == 0.0 or not (t > 0.0):
-        # Grazing: the ray runs (numerically) in the triangle's plane.
-        p = pts[0] * h[1] + pts[1] * h[2] + pts[2] * (1.0 - h[1] - h[2])
-        t = wp.dot(p - cam.origin, cam.forward)
-    _write_visibility(gb, i, tri, t, h[1], h[2])
+    _write_exact_hit(gb, i, scene, cam, tri, d)
 
 
 @wp.kernel
@@ -669,7 +677,10 @@ def raycast_kernel(scene: SceneGPU, cam: CameraGPU, gb: GBufferRows, row0: int, 
             break
         t = t_base + q.t
         if not is_cut_away(scene, q.face, q.u, q.v):
-            _write_visibility(gb, i, q.face, t, q.u, q.v)
+            # The BVH picks the face; depth and barycentrics are recomputed exactly from
+            # the camera origin (mesh_query_ray works relative to far-away corners in
+            # float32, off by up to tens of percent on 1e4-sized triangles seen up close).
+            _write_exact_hit(gb, i, scene, cam, q.face, d)
             return
         t_base = t + 1.0e-5 * t
     _write_background(gb, i)

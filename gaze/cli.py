@@ -46,41 +46,59 @@ def add_gaze_commands(parser: argparse.ArgumentParser) -> None:
 
     p = sub.add_parser("calibrate", help="9-point webcam calibration: fit features -> screen, save JSON")
     p.add_argument("--source", required=True, help="webcam:INDEX or webcam:VIDEO (a video file)")
-    p.add_argument("--targets", default=None,
-                   help="CSV with rows t,x,y (normalised, origin top-left): the target shown from t "
-                        "until the next row's t")
+    p.add_argument(
+        "--targets",
+        default=None,
+        help="CSV with rows t,x,y (normalised, origin top-left): the target shown from t until the next row's t",
+    )
     p.add_argument("--out", required=True, help="calibration JSON to write")
 
     p = sub.add_parser("record", help="run the webcam estimator and write a simple CSV gaze trace")
     p.add_argument("--source", required=True, help="webcam:INDEX or webcam:VIDEO (a video file)")
     p.add_argument("--calibration", required=True, help="calibration JSON from 'gaze calibrate'")
     p.add_argument("--out", required=True, help="trace CSV to write (t,x,y,confidence)")
-    p.add_argument("--screen", type=screen_size_arg, default=None, metavar="WxH",
-                   help="screen size in pixels, e.g. 1920x1080")
+    p.add_argument(
+        "--screen", type=screen_size_arg, default=None, metavar="WxH", help="screen size in pixels, e.g. 1920x1080"
+    )
 
     p = sub.add_parser("convert", help="convert a gaze trace (simple CSV, Pupil Labs, Tobii) to the simple CSV")
     p.add_argument("input", help="trace file; its format is detected from the header unless --format is given")
-    p.add_argument("output", help="simple CSV to write: t,x,y,confidence, t from the first sample, "
-                                  "x,y normalised with the origin top-left")
+    p.add_argument(
+        "output",
+        help="simple CSV to write: t,x,y,confidence, t from the first sample, x,y normalised with the origin top-left",
+    )
     p.add_argument("--format", choices=FORMATS, default=None, help="input format (default: detect)")
-    p.add_argument("--screen", type=screen_size_arg, default=None, metavar="WxH",
-                   help="pixel size of pixel coordinates in the input (simple CSV in pixels, Tobii "
-                        "without 'Recording resolution' columns)")
-    p.add_argument("--min-confidence", type=confidence_arg, default=DEFAULT_MIN_CONFIDENCE,
-                   help=f"samples below this confidence are invalid (default {DEFAULT_MIN_CONFIDENCE})")
+    p.add_argument(
+        "--screen",
+        type=screen_size_arg,
+        default=None,
+        metavar="WxH",
+        help="pixel size of pixel coordinates in the input (simple CSV in pixels, Tobii "
+        "without 'Recording resolution' columns)",
+    )
+    p.add_argument(
+        "--min-confidence",
+        type=confidence_arg,
+        default=DEFAULT_MIN_CONFIDENCE,
+        help=f"samples below this confidence are invalid (default {DEFAULT_MIN_CONFIDENCE})",
+    )
 
 
 def add_gaze_parser(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``gaze`` sub-command (with calibrate/record/convert) to a parent program's sub-parsers."""
-    parser = subparsers.add_parser("gaze", help="gaze sources: webcam calibrate/record, trace convert",
-                                   description="Gaze sources: webcam calibration and recording, trace conversion.")
+    parser = subparsers.add_parser(
+        "gaze",
+        help="gaze sources: webcam calibrate/record, trace convert",
+        description="Gaze sources: webcam calibration and recording, trace conversion.",
+    )
     add_gaze_commands(parser)
 
 
 def build_parser() -> argparse.ArgumentParser:
     """The stand-alone ``gaze`` program (``python -m gaze``)."""
-    parser = argparse.ArgumentParser(prog="gaze", description="Gaze sources: webcam calibration and recording, "
-                                                              "trace conversion.")
+    parser = argparse.ArgumentParser(
+        prog="gaze", description="Gaze sources: webcam calibration and recording, trace conversion."
+    )
     add_gaze_commands(parser)
     return parser
 
@@ -89,8 +107,10 @@ def _cmd_convert(args: argparse.Namespace) -> int:
     """``gaze convert IN OUT``: read any supported trace, write the simple CSV atomically."""
     data = read_trace(args.input, args.format, args.screen, args.min_confidence)
     write_trace(args.output, data)
-    print(f"{args.output}: {len(data)} samples ({int(data.valid.sum())} valid) over {data.duration:.3f} s "
-          f"from {data.format} {args.input}")
+    print(
+        f"{args.output}: {len(data)} samples ({int(data.valid.sum())} valid) over {data.duration:.3f} s "
+        f"from {data.format} {args.input}"
+    )
     return 0
 
 

@@ -69,10 +69,17 @@ def measure(folder: Path, suffix: str, seed: int, haar_every_frame: bool) -> dic
         rec = record_stream(frames, estimator)
     total_ms = 1000.0 * (time.perf_counter() - start) / len(rec.t)
     deg, px = synthetic.gaze_errors(test, rec.x, rec.y)
-    return {"codec": synthetic.FOURCC[suffix], "frames": len(rec.t), "valid": int(rec.valid.sum()),
-            "median_deg": float(np.median(deg)), "p90_deg": float(np.percentile(deg, 90)),
-            "median_px": float(np.median(px)), "ms_per_frame": float(np.median(rec.ms)),
-            "ms_per_frame_with_decode": total_ms, "calibration_residual": calibration.residual_rms}
+    return {
+        "codec": synthetic.FOURCC[suffix],
+        "frames": len(rec.t),
+        "valid": int(rec.valid.sum()),
+        "median_deg": float(np.median(deg)),
+        "p90_deg": float(np.percentile(deg, 90)),
+        "median_px": float(np.median(px)),
+        "ms_per_frame": float(np.median(rec.ms)),
+        "ms_per_frame_with_decode": total_ms,
+        "calibration_residual": calibration.residual_rms,
+    }
 
 
 def main() -> None:
@@ -91,11 +98,15 @@ def main() -> None:
                 r = measure(Path(tmp), f".{codec}", args.seed, ablation)
                 r["tracker"] = "haar-every-frame" if ablation else "template"
                 results.append(r)
-    print(f"{'codec':6} {'tracker':17} {'median deg':>10} {'p90 deg':>8} {'median px':>9} {'ms/frame':>8} "
-          f"{'+decode':>8} {'valid':>9}")
+    print(
+        f"{'codec':6} {'tracker':17} {'median deg':>10} {'p90 deg':>8} {'median px':>9} {'ms/frame':>8} "
+        f"{'+decode':>8} {'valid':>9}"
+    )
     for r in results:
-        print(f"{r['codec']:6} {r['tracker']:17} {r['median_deg']:10.3f} {r['p90_deg']:8.3f} {r['median_px']:9.1f} "
-              f"{r['ms_per_frame']:8.2f} {r['ms_per_frame_with_decode']:8.2f} {r['valid']:4d}/{r['frames']}")
+        print(
+            f"{r['codec']:6} {r['tracker']:17} {r['median_deg']:10.3f} {r['p90_deg']:8.3f} {r['median_px']:9.1f} "
+            f"{r['ms_per_frame']:8.2f} {r['ms_per_frame_with_decode']:8.2f} {r['valid']:4d}/{r['frames']}"
+        )
     if args.json:
         Path(args.json).parent.mkdir(parents=True, exist_ok=True)
         Path(args.json).write_text(json.dumps(results, indent=1) + "\n", encoding="utf-8")

@@ -94,7 +94,9 @@ def cold_start(path: str, width: int, height: int) -> float:
             "print(time.perf_counter()-t)"
         )
         env = {**__import__("os").environ, "WARP_HYBRID_KERNEL_CACHE": cache}
-        out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, env=env, capture_output=True, text=True, check=True)
+        out = subprocess.run(
+            [sys.executable, "-c", code], cwd=ROOT, env=env, capture_output=True, text=True, check=True
+        )
         return float(out.stdout.strip().splitlines()[-1])
 
 
@@ -103,16 +105,31 @@ def main() -> None:
     args, width, height, results = run_per_scene(__doc__.splitlines()[0], __file__, measure_scene)
     biggest = max(manifest_scenes(args.scenes), key=lambda e: e["triangles"])
     cold = cold_start(biggest["path"], width, height)
-    cols = ["triangles", "load_ms", "bvh_build_ms", "raster_ms", "resolve_ms", "surface_ms", "lighting_ms", "raycast_ms"]
-    print(f"| scene | {' | '.join(c.replace('_ms', ' ms') for c in cols)} | raster+resolve vs raycast | depth agree | ids agree | peak RSS MB |")
+    cols = [
+        "triangles",
+        "load_ms",
+        "bvh_build_ms",
+        "raster_ms",
+        "resolve_ms",
+        "surface_ms",
+        "lighting_ms",
+        "raycast_ms",
+    ]
+    print(
+        f"| scene | {' | '.join(c.replace('_ms', ' ms') for c in cols)} | raster+resolve vs raycast | depth agree | ids agree | peak RSS MB |"
+    )
     print("|" + "---|" * (len(cols) + 5))
     for name, r in results.items():
         ratio = r["raycast_ms"] / (r["raster_ms"] + r["resolve_ms"])
         vals = " | ".join(f"{r[c]:.0f}" if c == "triangles" else f"{r[c]:.1f}" for c in cols)
-        print(f"| {name} | {vals} | {ratio:.1f}x | {100 * r['depth_agreement']:.3f}% | {100 * r['triangle_id_agreement']:.3f}% | {r['peak_rss_mb']:.0f} |")
+        print(
+            f"| {name} | {vals} | {ratio:.1f}x | {100 * r['depth_agreement']:.3f}% | {100 * r['triangle_id_agreement']:.3f}% | {r['peak_rss_mb']:.0f} |"
+        )
     threads = next(iter(results.values()))["threads"] if results else 0
-    print(f"\n{width}x{height}, {threads} threads, median of {args.repeats} after a warm-up; "
-          f"cold start ({biggest['name']}, empty kernel cache to first frame): {cold:.1f} s")
+    print(
+        f"\n{width}x{height}, {threads} threads, median of {args.repeats} after a warm-up; "
+        f"cold start ({biggest['name']}, empty kernel cache to first frame): {cold:.1f} s"
+    )
     if args.json:
         from warp_hybrid.output import write_json
 

@@ -28,7 +28,12 @@ def measure_scene(path: str, width: int, height: int, repeats: int) -> dict:
     scene = open_scene_source(path).scene_at(None)
     camera = scene.cameras[0]
     out: dict = {"triangles": scene.triangle_count}
-    configs = {"raster": ("raster", None), "full": ("full", None), "hybrid": ("hybrid", None), "full_1thread": ("full", 1)}
+    configs = {
+        "raster": ("raster", None),
+        "full": ("full", None),
+        "hybrid": ("hybrid", None),
+        "full_1thread": ("full", 1),
+    }
     for name, (mode, threads) in configs.items():
         settings = RenderSettings(width=width, height=height, mode=mode, window_fraction=0.25, threads=threads)
         with Renderer(scene, settings) as r:
@@ -40,15 +45,22 @@ def measure_scene(path: str, width: int, height: int, repeats: int) -> dict:
                 return {**f.stats["stages_ms"], "frame": f.stats["frame_ms"]}
 
             stages = median_ms(frame, repeats)
-            out[name] = {"stages_ms": stages, "fps": 1000.0 / stages["frame"], "rays": last.get("rays"),
-                         "threads": r.launcher.threads, "effects": last["effects"]}
+            out[name] = {
+                "stages_ms": stages,
+                "fps": 1000.0 / stages["frame"],
+                "rays": last.get("rays"),
+                "threads": r.launcher.threads,
+                "effects": last["effects"],
+            }
     full = out["full"]
     rays = full["rays"] or {}
     shadow_ms = full["stages_ms"].get("trace_shadow", 0.0)
     secondary_ms = full["stages_ms"].get("trace_secondary", 0.0)
     out["mrays_per_s"] = {
         "shadow": rays.get("shadow", 0) / shadow_ms / 1000.0 if shadow_ms else 0.0,
-        "secondary": (rays.get("reflection", 0) + rays.get("refraction", 0)) / secondary_ms / 1000.0 if secondary_ms else 0.0,
+        "secondary": (rays.get("reflection", 0) + rays.get("refraction", 0)) / secondary_ms / 1000.0
+        if secondary_ms
+        else 0.0,
     }
     trace_ms = {k: sum(out[k]["stages_ms"].get(s, 0.0) for s in TRACE_STAGES) for k in ("full", "full_1thread")}
     out["trace_speedup_threads"] = trace_ms["full_1thread"] / trace_ms["full"] if trace_ms["full"] else 0.0
@@ -59,12 +71,16 @@ def measure_scene(path: str, width: int, height: int, repeats: int) -> dict:
 def main() -> None:
     """Run the benchmark and print the tables."""
     args, width, height, results = run_per_scene(__doc__.splitlines()[0], __file__, measure_scene)
-    print("| scene | triangles | DS fps | RT fps | HRT fps (25%) | HRT vs RT | shadow Mrays/s | secondary Mrays/s | trace 2 vs 1 thread |")
+    print(
+        "| scene | triangles | DS fps | RT fps | HRT fps (25%) | HRT vs RT | shadow Mrays/s | secondary Mrays/s | trace 2 vs 1 thread |"
+    )
     print("|---|---|---|---|---|---|---|---|---|")
     for name, r in results.items():
-        print(f"| {name} | {r['triangles']} | {r['raster']['fps']:.1f} | {r['full']['fps']:.1f} | {r['hybrid']['fps']:.1f} | "
-              f"{r['hrt_vs_rt']:.2f}x | {r['mrays_per_s']['shadow']:.2f} | {r['mrays_per_s']['secondary']:.2f} | "
-              f"{r['trace_speedup_threads']:.2f}x |")
+        print(
+            f"| {name} | {r['triangles']} | {r['raster']['fps']:.1f} | {r['full']['fps']:.1f} | {r['hybrid']['fps']:.1f} | "
+            f"{r['hrt_vs_rt']:.2f}x | {r['mrays_per_s']['shadow']:.2f} | {r['mrays_per_s']['secondary']:.2f} | "
+            f"{r['trace_speedup_threads']:.2f}x |"
+        )
     print("\nms per stage (median):")
     for name, r in results.items():
         for mode in ("raster", "full", "hybrid"):

@@ -315,7 +315,6 @@ def _acne_plane() -> tuple[np.ndarray, ...]:
     return quad((1.45, 0.55, 0.3), 0.9 * e1, 0.9 * e2)
 
 
-
 def _needles_and_degenerates() -> tuple[np.ndarray, np.ndarray]:
     """Six 0.8-long, 1e-4-wide needles fanned upwards, then three zero-area triangles:
     collinear corners, a repeated index, all three corners the same vertex."""

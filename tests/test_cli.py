@@ -18,8 +18,20 @@ CORNELL = ROOT / "scenes" / "cornell_glass.usda"
 
 def test_render_writes_png_aovs_and_stats(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
     out = tmp_path / "img.png"
-    code = main(["render", str(CORNELL), "-o", str(out), "--size", "64x48", "--aov-dir", str(tmp_path / "aov"),
-                 "--stats-json", str(tmp_path / "stats.json")])
+    code = main(
+        [
+            "render",
+            str(CORNELL),
+            "-o",
+            str(out),
+            "--size",
+            "64x48",
+            "--aov-dir",
+            str(tmp_path / "aov"),
+            "--stats-json",
+            str(tmp_path / "stats.json"),
+        ]
+    )
     assert code == 0
     img = cv2.imread(str(out))
     assert img.shape == (48, 64, 3) and img.std() > 5  # a real picture, not a flat fill
@@ -59,7 +71,9 @@ def test_convert_then_render(tmp_path: Path) -> None:
         (["render", str(CORNELL), "--device", "cuda:9"], "cuda:9"),
     ],
 )
-def test_errors_name_the_problem_and_write_nothing(tmp_path: Path, capsys: pytest.CaptureFixture, args: list[str], needle: str) -> None:
+def test_errors_name_the_problem_and_write_nothing(
+    tmp_path: Path, capsys: pytest.CaptureFixture, args: list[str], needle: str
+) -> None:
     out = tmp_path / "never.png"
     code = main([*args, "-o", str(out), "--size", "32x24", "--stats-json", str(tmp_path / "s.json")])
     assert code == 2
@@ -79,9 +93,24 @@ def test_not_usd_file_is_a_clear_error(tmp_path: Path, capsys: pytest.CaptureFix
 
 def test_hybrid_gaze_from_the_shipped_trace(tmp_path: Path) -> None:
     stats_path = tmp_path / "s.json"
-    code = main(["render", str(CORNELL), "-o", str(tmp_path / "h.png"), "--size", "64x48", "--mode", "hybrid",
-                 "--gaze", f"trace:{ROOT / 'scenes' / 'traces' / 'demo_gaze.csv'}", "--window", "0.3",
-                 "--stats-json", str(stats_path)])
+    code = main(
+        [
+            "render",
+            str(CORNELL),
+            "-o",
+            str(tmp_path / "h.png"),
+            "--size",
+            "64x48",
+            "--mode",
+            "hybrid",
+            "--gaze",
+            f"trace:{ROOT / 'scenes' / 'traces' / 'demo_gaze.csv'}",
+            "--window",
+            "0.3",
+            "--stats-json",
+            str(stats_path),
+        ]
+    )
     assert code == 0
     stats = json.loads(stats_path.read_text())
     assert stats["mode"] == "hybrid"

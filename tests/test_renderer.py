@@ -15,7 +15,10 @@ W, H = 80, 60
 
 def sphere_scene(center_x: float = 0.0):
     """A grey sphere over a floor, a sun, a camera at +Z looking at the origin."""
-    mats = [Material("grey", diffuse=(0.5, 0.5, 0.5), roughness=0.8), Material("floor", diffuse=(0.3, 0.3, 0.3), roughness=0.9)]
+    mats = [
+        Material("grey", diffuse=(0.5, 0.5, 0.5), roughness=0.8),
+        Material("floor", diffuse=(0.3, 0.3, 0.3), roughness=0.9),
+    ]
     meshes = [uv_sphere((center_x, 0.0, 0.0), 1.0, 32, 64, 0), quad((-4, -1, 4), (8, 0, 0), (0, 0, -8), 1, "/floor")]
     sun = Light(LightKind.DISTANT, "/sun", (3.0, 3.0, 3.0), direction=(0.3, -1.0, -0.2))
     cam = look_at_camera((0.0, 0.5, 6.0), (0.0, 0.0, 0.0), hfov_deg=50.0)

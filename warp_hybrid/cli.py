@@ -74,16 +74,27 @@ def _add_render_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--aov-dir", default=None, help="write depth/position/normal/albedo/color .npy files here")
     p.add_argument("--stats-json", default=None, help="write per-stage timings and counts as JSON here")
     p.add_argument("--primary", choices=("raster", "raycast"), default="raster", help="primary visibility path")
-    p.add_argument("--mode", choices=MODES, default="hybrid",
-                   help="raster: deferred shading only; full: every pixel ray traced; hybrid (default): ray traced in the focus window")
-    p.add_argument("--gaze", default="0.5,0.5",
-                   help="where the viewer looks: X,Y normalised (origin top-left), or a gaze source spec "
-                        "(e.g. trace:PATH) sampled at the frame's time (default 0.5,0.5)")
-    p.add_argument("--window", type=float, default=0.25, help="focus window area as a fraction of the screen (0..1, default 0.25)")
+    p.add_argument(
+        "--mode",
+        choices=MODES,
+        default="hybrid",
+        help="raster: deferred shading only; full: every pixel ray traced; hybrid (default): ray traced in the focus window",
+    )
+    p.add_argument(
+        "--gaze",
+        default="0.5,0.5",
+        help="where the viewer looks: X,Y normalised (origin top-left), or a gaze source spec "
+        "(e.g. trace:PATH) sampled at the frame's time (default 0.5,0.5)",
+    )
+    p.add_argument(
+        "--window", type=float, default=0.25, help="focus window area as a fraction of the screen (0..1, default 0.25)"
+    )
     p.add_argument("--window-shape", choices=SHAPES, default="circle", help="focus window shape (default circle)")
     p.add_argument("--feather", type=float, default=16.0, help="blend band inside the window edge, pixels (default 16)")
     p.add_argument("--max-depth", type=int, default=3, help="secondary bounces per pixel (default 3)")
-    p.add_argument("--shadow-samples", type=int, default=1, help="1: hard shadows; N: N samples over area/sphere lights")
+    p.add_argument(
+        "--shadow-samples", type=int, default=1, help="1: hard shadows; N: N samples over area/sphere lights"
+    )
     p.add_argument("--exposure", type=parse_exposure, default=None, help="'auto' (default) or stops (EV)")
     p.add_argument("--tonemap", choices=TONEMAPS, default="aces", help="tone mapping operator")
     p.add_argument("--no-aa", dest="antialias", action="store_false", help="turn the FXAA post pass off")
@@ -132,7 +143,9 @@ def _cmd_render(args: argparse.Namespace) -> int:
     for w in scene.warnings:
         print(f"warning: {w}", file=sys.stderr)
     stages = ", ".join(f"{k} {v:.1f}" for k, v in frame.stats["stages_ms"].items())
-    print(f"{args.output}: {settings.width}x{settings.height}, {scene.triangle_count} triangles, frame {frame.stats['frame_ms']:.1f} ms ({stages})")
+    print(
+        f"{args.output}: {settings.width}x{settings.height}, {scene.triangle_count} triangles, frame {frame.stats['frame_ms']:.1f} ms ({stages})"
+    )
     return 0
 
 
@@ -196,4 +209,3 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (WarpHybridError, GazeError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
-

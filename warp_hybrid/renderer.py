@@ -73,7 +73,9 @@ class RenderSettings:
         if self.window_shape not in SHAPES:
             raise RenderSettingsError(f"window shape {self.window_shape!r} is not one of {', '.join(SHAPES)}")
         if not 0.0 <= self.window_fraction <= 1.0:
-            raise RenderSettingsError(f"window fraction must be in [0, 1] (share of the screen area), got {self.window_fraction}")
+            raise RenderSettingsError(
+                f"window fraction must be in [0, 1] (share of the screen area), got {self.window_fraction}"
+            )
         if not self.feather_px >= 0.0:
             raise RenderSettingsError(f"feather must be >= 0 pixels, got {self.feather_px}")
         if self.max_depth < 0:
@@ -147,7 +149,9 @@ class Renderer:
             self.traced_color = wp.zeros((h, w), dtype=wp.vec3, device=self.device)
             self.focus = FocusRegionBuilder(self.launcher, w, h)
             self.compositor = Compositor(self.launcher)
-            self.color = wp.zeros((h, w), dtype=wp.vec3, device=self.device) if s.mode == "hybrid" else self.traced_color
+            self.color = (
+                wp.zeros((h, w), dtype=wp.vec3, device=self.device) if s.mode == "hybrid" else self.traced_color
+            )
         else:
             self.color = self.raster_color
 

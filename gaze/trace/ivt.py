@@ -11,9 +11,7 @@ from gaze.source import FIXATION, SACCADE, UNKNOWN
 DEFAULT_THRESHOLD_DEG_S = 30.0
 
 
-def angular_speed(
-    t: np.ndarray, x: np.ndarray, y: np.ndarray, valid: np.ndarray, screen: ScreenGeometry
-) -> np.ndarray:
+def angular_speed(t: np.ndarray, x: np.ndarray, y: np.ndarray, valid: np.ndarray, screen: ScreenGeometry) -> np.ndarray:
     """Eye speed in degrees per second at each sample (NaN where it cannot be measured).
 
     A central difference over the two neighbours where both are valid, otherwise a

@@ -76,21 +76,38 @@ class Calibration:
             if not ok:
                 raise GazeError("calibration", "the face template does not encode as PNG")
             box = self.reference.face
-            reference = {"template_png": base64.b64encode(png.tobytes()).decode("ascii"),
-                         "face_box": [box.x, box.y, box.w, box.h], "eyes": self.reference.eyes.tolist()}
-        return {"schema": SCHEMA, "version": VERSION, "model": MODEL, "terms": list(TERMS),
-                "feature_mean": self.feature_mean.tolist(), "feature_scale": self.feature_scale.tolist(),
-                "coefficients": {"x": self.coefficients[0].tolist(), "y": self.coefficients[1].tolist()},
-                "settle_s": SETTLE_S, "targets": self.targets, "samples": self.samples,
-                "residual_rms": self.residual_rms, "face_reference": reference}
+            reference = {
+                "template_png": base64.b64encode(png.tobytes()).decode("ascii"),
+                "face_box": [box.x, box.y, box.w, box.h],
+                "eyes": self.reference.eyes.tolist(),
+            }
+        return {
+            "schema": SCHEMA,
+            "version": VERSION,
+            "model": MODEL,
+            "terms": list(TERMS),
+            "feature_mean": self.feature_mean.tolist(),
+            "feature_scale": self.feature_scale.tolist(),
+            "coefficients": {"x": self.coefficients[0].tolist(), "y": self.coefficients[1].tolist()},
+            "settle_s": SETTLE_S,
+            "targets": self.targets,
+            "samples": self.samples,
+            "residual_rms": self.residual_rms,
+            "face_reference": reference,
+        }
 
     def save(self, path: str | Path) -> None:
         """Write the JSON file atomically."""
         write_text_atomic(path, json.dumps(self.to_json(), indent=1) + "\n")
 
 
-def fit_polynomial(features: np.ndarray, screen: np.ndarray, samples: int | None = None,
-                   reference: FaceReference | None = None, where: str = "calibration") -> Calibration:
+def fit_polynomial(
+    features: np.ndarray,
+    screen: np.ndarray,
+    samples: int | None = None,
+    reference: FaceReference | None = None,
+    where: str = "calibration",
+) -> Calibration:
     """Least-squares quadratic from features (N, 2) to screen points (N, 2); N >= 6 in general position."""
     features, screen = np.asarray(features, float), np.asarray(screen, float)
     if features.ndim != 2 or features.shape[1] != 2 or screen.shape != features.shape:
@@ -107,9 +124,15 @@ def fit_polynomial(features: np.ndarray, screen: np.ndarray, samples: int | None
         raise GazeError(where, "the calibration points do not determine a quadratic (too few distinct points)")
     coefficients, *_ = np.linalg.lstsq(design, screen, rcond=None)
     residual = design @ coefficients - screen
-    return Calibration(mean, scale, coefficients.T.copy(), len(features),
-                       len(features) if samples is None else samples,
-                       float(np.sqrt((residual ** 2).sum(axis=1).mean())), reference)
+    return Calibration(
+        mean,
+        scale,
+        coefficients.T.copy(),
+        len(features),
+        len(features) if samples is None else samples,
+        float(np.sqrt((residual**2).sum(axis=1).mean())),
+        reference,
+    )
 
 
 @dataclass(frozen=True)
@@ -146,25 +169,36 @@ def read_targets(path: str | Path) -> TargetSchedule:
         raise GazeError(table.path, f"line {int(table.lines[np.argmax(bad)])}: empty or non-finite cell")
     if ((x < 0) | (x > 1) | (y < 0) | (y > 1)).any():
         k = int(np.argmax((x < 0) | (x > 1) | (y < 0) | (y > 1)))
-        raise GazeError(table.path, f"line {int(table.lines[k])}: target ({x[k]:g}, {y[k]:g}) is outside [0,1]^2 "
-                                    "(normalised, origin top-left)")
+        raise GazeError(
+            table.path,
+            f"line {int(table.lines[k])}: target ({x[k]:g}, {y[k]:g}) is outside [0,1]^2 (normalised, origin top-left)",
+        )
     if (np.diff(t) <= 0).any():
         k = int(np.argmax(np.diff(t) <= 0)) + 1
         raise GazeError(table.path, f"line {int(table.lines[k])}: times must increase")
     return TargetSchedule(t, x, y)
 
 
-def fit_calibration(t: np.ndarray, features: np.ndarray, valid: np.ndarray, schedule: TargetSchedule,
-                    settle_s: float = SETTLE_S, reference: FaceReference | None = None,
-                    where: str = "calibration") -> Calibration:
+def fit_calibration(
+    t: np.ndarray,
+    features: np.ndarray,
+    valid: np.ndarray,
+    schedule: TargetSchedule,
+    settle_s: float = SETTLE_S,
+    reference: FaceReference | None = None,
+    where: str = "calibration",
+) -> Calibration:
     """Fit from per-frame features: settled, valid frames only; one median feature per target."""
     t, features, valid = np.asarray(t, float), np.asarray(features, float), np.asarray(valid, bool)
     use = valid & schedule.settled(t, settle_s) & np.isfinite(features).all(axis=1)
     index = schedule.index_at(t)
     targets = [k for k in range(len(schedule.t)) if (use & (index == k)).any()]
     if len(targets) < len(TERMS):
-        raise GazeError(where, f"only {len(targets)} of {len(schedule.t)} targets have settled frames with both "
-                               f"pupils found; a quadratic needs {len(TERMS)}")
+        raise GazeError(
+            where,
+            f"only {len(targets)} of {len(schedule.t)} targets have settled frames with both "
+            f"pupils found; a quadratic needs {len(TERMS)}",
+        )
     medians = np.array([np.median(features[use & (index == k)], axis=0) for k in targets])
     screen = np.stack([schedule.x[targets], schedule.y[targets]], axis=1)
     return fit_polynomial(medians, screen, int(use.sum()), reference, where)
@@ -177,8 +211,11 @@ def _numbers(doc: dict, key: str, count: int, where: str) -> np.ndarray:
 
 def _finite_list(value: object, name: str, count: int, where: str) -> np.ndarray:
     """``value`` as ``count`` finite numbers; ``GazeError`` naming ``where`` and ``name`` otherwise."""
-    if not isinstance(value, list) or len(value) != count or not all(
-            isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value):
+    if (
+        not isinstance(value, list)
+        or len(value) != count
+        or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value)
+    ):
         raise GazeError(where, f"{name!r} must be a list of {count} finite numbers, got {value!r:.80}")
     return np.asarray(value, dtype=float)
 
@@ -228,8 +265,15 @@ def calibration_from_json(doc: object, where: str) -> Calibration:
     residual = doc.get("residual_rms", 0.0)
     if not all(isinstance(c, int) and c >= 0 for c in counts) or not isinstance(residual, (int, float)):
         raise GazeError(where, "'targets'/'samples' must be counts and 'residual_rms' a number")
-    return Calibration(mean, scale, rows, counts[0], counts[1], float(residual),
-                       _reference(doc.get("face_reference"), f"{where}: face_reference"))
+    return Calibration(
+        mean,
+        scale,
+        rows,
+        counts[0],
+        counts[1],
+        float(residual),
+        _reference(doc.get("face_reference"), f"{where}: face_reference"),
+    )
 
 
 def load_calibration(path: str | Path) -> Calibration:

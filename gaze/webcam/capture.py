@@ -143,7 +143,7 @@ def parse_device(spec: int | str) -> int | str:
         return spec
     text = spec.strip()
     if text.lower().startswith(WEBCAM_PREFIX):
-        text = text[len(WEBCAM_PREFIX):].strip()
+        text = text[len(WEBCAM_PREFIX) :].strip()
     if not text:
         raise GazeError(str(spec), "expected webcam:INDEX or webcam:VIDEO_PATH")
     return int(text) if text.isdigit() else text

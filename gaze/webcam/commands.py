@@ -47,8 +47,9 @@ class Recording:
     ms: np.ndarray
 
 
-def calibrate_stream(frames: FrameSource, schedule: TargetSchedule, where: str,
-                     estimator: GazeEstimator | None = None) -> tuple[Calibration, int]:
+def calibrate_stream(
+    frames: FrameSource, schedule: TargetSchedule, where: str, estimator: GazeEstimator | None = None
+) -> tuple[Calibration, int]:
     """Measure every frame of ``frames`` (a live camera until the last target has been shown
     for the median target duration) and fit a calibration; returns it and the frame count."""
     dwell = float(np.median(np.diff(schedule.t))) if len(schedule.t) > 1 else 1.0
@@ -90,16 +91,21 @@ def run_calibrate(args: argparse.Namespace) -> int:
         if isinstance(device, int):
             print(NO_TARGETS.format(source=args.source), file=sys.stderr)
         else:
-            print(f"{args.source}: a calibration video needs --targets targets.csv (rows t,x,y: the target "
-                  "shown from t until the next row's t)", file=sys.stderr)
+            print(
+                f"{args.source}: a calibration video needs --targets targets.csv (rows t,x,y: the target "
+                "shown from t until the next row's t)",
+                file=sys.stderr,
+            )
         return 2
     schedule = read_targets(args.targets)
     with open_frames(device) as frames:
         calibration, count = calibrate_stream(frames, schedule, f"{args.source} with targets {args.targets}")
     calibration.save(args.out)
-    print(f"{args.out}: quadratic calibration from {calibration.targets} of {len(schedule.t)} targets, "
-          f"{calibration.samples} settled frames of {count}; residual {calibration.residual_rms:.4f} rms "
-          "(normalised screen units)")
+    print(
+        f"{args.out}: quadratic calibration from {calibration.targets} of {len(schedule.t)} targets, "
+        f"{calibration.samples} settled frames of {count}; residual {calibration.residual_rms:.4f} rms "
+        "(normalised screen units)"
+    )
     return 0
 
 
@@ -110,6 +116,8 @@ def run_record(args: argparse.Namespace) -> int:
     with open_frames(args.source) as frames:
         rec = record_stream(frames, estimator)
     write_simple(args.out, rec.t, rec.x, rec.y, rec.confidence, rec.valid, args.screen)
-    print(f"{args.out}: {len(rec.t)} samples ({int(rec.valid.sum())} valid) over {rec.t[-1] - rec.t[0]:.3f} s "
-          f"from {frames.name}")
+    print(
+        f"{args.out}: {len(rec.t)} samples ({int(rec.valid.sum())} valid) over {rec.t[-1] - rec.t[0]:.3f} s "
+        f"from {frames.name}"
+    )
     return 0

@@ -65,8 +65,12 @@ class Measurement:
 class GazeEstimator:
     """Turns BGR (or grey) frames into gaze samples; one instance per video stream."""
 
-    def __init__(self, calibration: Calibration | None = None, tracker: FaceTracker | None = None,
-                 smoothing: OneEuroFilter | None = None) -> None:
+    def __init__(
+        self,
+        calibration: Calibration | None = None,
+        tracker: FaceTracker | None = None,
+        smoothing: OneEuroFilter | None = None,
+    ) -> None:
         self.calibration = calibration
         reference = calibration.reference if calibration is not None else None
         self.tracker = tracker or FaceTracker(reference=reference)

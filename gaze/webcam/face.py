@@ -59,8 +59,9 @@ class Box:
 class FaceDetector:
     """Largest frontal face by the Haar cascade, run on a frame scaled to ``detect_width``."""
 
-    def __init__(self, detect_width: int = 320, scale_factor: float = 1.1, min_neighbors: int = 5,
-                 min_face_fraction: float = 0.1) -> None:
+    def __init__(
+        self, detect_width: int = 320, scale_factor: float = 1.1, min_neighbors: int = 5, min_face_fraction: float = 0.1
+    ) -> None:
         self.detect_width = detect_width
         self.scale_factor = scale_factor
         self.min_neighbors = min_neighbors
@@ -83,7 +84,7 @@ class FaceDetector:
         """Eye centres (2, 2) in frame pixels, left to right: the eye cascade's pair in the upper
         face, or ``DEFAULT_EYES`` fractions of the box when it finds no plausible pair."""
         x0, y0 = int(face.x), int(face.y)
-        upper = grey[max(y0, 0):max(y0 + int(0.6 * face.h), 0), max(x0, 0):max(x0 + int(face.w), 0)]
+        upper = grey[max(y0, 0) : max(y0 + int(0.6 * face.h), 0), max(x0, 0) : max(x0 + int(face.w), 0)]
         side = max(8, int(face.w / 8))
         found = self._eyes.detectMultiScale(upper, 1.1, 5, minSize=(side, side)) if upper.size else ()
         default = np.array([[face.x + fx * face.w, face.y + fy * face.h] for fx, fy in DEFAULT_EYES])
@@ -157,8 +158,9 @@ def match_template(grey: np.ndarray, template: np.ndarray, guess: np.ndarray, ra
     return np.array([x0 + px + dx, y0 + py + dy]), float(score)
 
 
-def refine_match(grey: np.ndarray, template: np.ndarray, estimate: np.ndarray,
-                 margin: int = REFINE_MARGIN) -> tuple[np.ndarray, float]:
+def refine_match(
+    grey: np.ndarray, template: np.ndarray, estimate: np.ndarray, margin: int = REFINE_MARGIN
+) -> tuple[np.ndarray, float]:
     """Remove most of the parabola's sub-pixel bias: shift the template by the estimate's
     fractional part (bicubic), match its inner part again within 1 px and add the small
     residual offset, where the parabola is nearly exact.  Returns the refined top-left and score."""
@@ -169,7 +171,7 @@ def refine_match(grey: np.ndarray, template: np.ndarray, estimate: np.ndarray,
         return estimate, -1.0
     shift = np.array([[1.0, 0.0, frac[0]], [0.0, 1.0, frac[1]]])
     shifted = cv2.warpAffine(template, shift, (tw, th), flags=cv2.INTER_CUBIC, borderMode=cv2.BORDER_REPLICATE)
-    inner = shifted[margin:th - margin, margin:tw - margin]
+    inner = shifted[margin : th - margin, margin : tw - margin]
     anchor, score = match_template(grey, inner, base + margin, 1)
     if score < 0.0:
         return estimate, score
@@ -184,8 +186,13 @@ class FaceTracker:
     face counts as lost.
     """
 
-    def __init__(self, detector: FaceDetector | None = None, reference: FaceReference | None = None,
-                 search_fraction: float = 0.12, min_score: float = 0.6) -> None:
+    def __init__(
+        self,
+        detector: FaceDetector | None = None,
+        reference: FaceReference | None = None,
+        search_fraction: float = 0.12,
+        min_score: float = 0.6,
+    ) -> None:
         self.detector = detector or FaceDetector()
         self.reference = reference
         self.search_fraction = search_fraction

@@ -28,8 +28,14 @@ class WebcamSource(GazeSource):
     invalid, with the raw feature in ``features``.  ``open_frames`` is injectable.
     """
 
-    def __init__(self, device: int | str, calibration: str | None = None, *,
-                 frames: Callable[[int | str], FrameSource] = open_frames, realtime: bool | None = None) -> None:
+    def __init__(
+        self,
+        device: int | str,
+        calibration: str | None = None,
+        *,
+        frames: Callable[[int | str], FrameSource] = open_frames,
+        realtime: bool | None = None,
+    ) -> None:
         self.device = device
         self.name = device_name(device)
         self.calibration: Calibration | None = load_calibration(calibration) if calibration else None
@@ -61,8 +67,9 @@ class WebcamSource(GazeSource):
         realtime = (not frames.live) if self._realtime is None else self._realtime
         self._stop.clear()
         self._error = None
-        self._thread = threading.Thread(target=self._work, args=(frames, realtime),
-                                        name=f"gaze {self.name}", daemon=True)
+        self._thread = threading.Thread(
+            target=self._work, args=(frames, realtime), name=f"gaze {self.name}", daemon=True
+        )
         self._thread.start()
 
     def _work(self, frames: FrameSource, realtime: bool) -> None:

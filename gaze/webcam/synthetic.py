@@ -159,8 +159,9 @@ def render_video(
             offset = goal[max(i - 1, 0)] + (goal[i] - goal[max(i - 1, 0)]) * ease
             shift = base_shift + head[k]
             matrix = np.array([[SCALE, 0.0, shift[0]], [0.0, SCALE, shift[1]]])
-            frame = cv2.warpAffine(photo, matrix, (FRAME_W, FRAME_H), flags=cv2.INTER_LINEAR,
-                                   borderMode=cv2.BORDER_REPLICATE)
+            frame = cv2.warpAffine(
+                photo, matrix, (FRAME_W, FRAME_H), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE
+            )
             for eye in eyes:
                 centre = SCALE * eye + shift
                 _draw_eye(frame, centre, centre + offset)
@@ -170,8 +171,13 @@ def render_video(
     return SyntheticVideo(str(path), fps, t, targets[current, 1], targets[current, 2], since)
 
 
-def gaze_errors(video: SyntheticVideo, x: np.ndarray, y: np.ndarray, screen: ScreenGeometry | None = None,
-                settle_s: float = SACCADE_S) -> tuple[np.ndarray, np.ndarray]:
+def gaze_errors(
+    video: SyntheticVideo,
+    x: np.ndarray,
+    y: np.ndarray,
+    screen: ScreenGeometry | None = None,
+    settle_s: float = SACCADE_S,
+) -> tuple[np.ndarray, np.ndarray]:
     """Errors of estimated points (one per frame) against the true gaze, in degrees and in screen
     pixels, over the frames at least ``settle_s`` after a target change."""
     screen = screen or ScreenGeometry()

@@ -61,14 +61,22 @@ def test_convert_failure_leaves_no_partial_file(tmp_path: Path) -> None:
 def run_module(*argv: str) -> subprocess.CompletedProcess[str]:
     """``python -m gaze ARGV`` from the repository root."""
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    return subprocess.run([sys.executable, "-m", "gaze", *argv], capture_output=True, text=True, cwd=ROOT,
-                          env=env, timeout=60, check=False)
+    return subprocess.run(
+        [sys.executable, "-m", "gaze", *argv],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        env=env,
+        timeout=60,
+        check=False,
+    )
 
 
 def test_python_m_gaze_convert(tmp_path: Path) -> None:
     src = tmp_path / "gaze_positions.csv"
-    src.write_text("gaze_timestamp,confidence,norm_pos_x,norm_pos_y\n9.5,0.9,0.5,0.2\n9.6,0.9,0.1,0.9\n",
-                   encoding="utf-8")
+    src.write_text(
+        "gaze_timestamp,confidence,norm_pos_x,norm_pos_y\n9.5,0.9,0.5,0.2\n9.6,0.9,0.1,0.9\n", encoding="utf-8"
+    )
     out = tmp_path / "out.csv"
     done = run_module("convert", str(src), str(out), "--format", "pupil")
     assert done.returncode == 0, done.stderr
@@ -94,20 +102,41 @@ def parent_parser() -> argparse.ArgumentParser:
 
 def test_gaze_sub_command_arguments() -> None:
     parser = parent_parser()
-    args = parser.parse_args(["gaze", "record", "--source", "webcam:0", "--calibration", "c.json",
-                              "--out", "t.csv", "--screen", "1920x1080"])
+    args = parser.parse_args(
+        ["gaze", "record", "--source", "webcam:0", "--calibration", "c.json", "--out", "t.csv", "--screen", "1920x1080"]
+    )
     assert (args.command, args.gaze_command, args.source, args.calibration, args.out, args.screen) == (
-        "gaze", "record", "webcam:0", "c.json", "t.csv", (1920, 1080))
-    args = parser.parse_args(["gaze", "calibrate", "--source", "clip.mp4", "--targets", "targets.csv",
-                              "--out", "calib.json"])
-    assert (args.gaze_command, args.source, args.targets, args.out) == ("calibrate", "clip.mp4", "targets.csv",
-                                                                        "calib.json")
+        "gaze",
+        "record",
+        "webcam:0",
+        "c.json",
+        "t.csv",
+        (1920, 1080),
+    )
+    args = parser.parse_args(
+        ["gaze", "calibrate", "--source", "clip.mp4", "--targets", "targets.csv", "--out", "calib.json"]
+    )
+    assert (args.gaze_command, args.source, args.targets, args.out) == (
+        "calibrate",
+        "clip.mp4",
+        "targets.csv",
+        "calib.json",
+    )
     assert parser.parse_args(["gaze", "calibrate", "--source", "webcam:0", "--out", "c.json"]).targets is None
     args = parser.parse_args(["gaze", "convert", "in.tsv", "out.csv"])
     assert (args.input, args.output, args.format, args.screen, args.min_confidence) == (
-        "in.tsv", "out.csv", None, None, 0.6)
-    for bad in (["gaze", "convert", "a", "b", "--screen", "1920by1080"], ["gaze", "record", "--source", "webcam:0"],
-                ["gaze", "convert", "a", "b", "--format", "xml"], ["gaze"]):
+        "in.tsv",
+        "out.csv",
+        None,
+        None,
+        0.6,
+    )
+    for bad in (
+        ["gaze", "convert", "a", "b", "--screen", "1920by1080"],
+        ["gaze", "record", "--source", "webcam:0"],
+        ["gaze", "convert", "a", "b", "--format", "xml"],
+        ["gaze"],
+    ):
         with pytest.raises(SystemExit):
             parser.parse_args(bad)
 
@@ -120,13 +149,18 @@ def test_webcam_commands_dispatch(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setitem(sys.modules, "gaze.webcam.commands", module)
     parser = parent_parser()
     assert run_gaze(parser.parse_args(["gaze", "calibrate", "--source", "webcam:0", "--out", "c.json"])) == 0
-    assert run_gaze(parser.parse_args(["gaze", "record", "--source", "v.mp4", "--calibration", "c.json",
-                                       "--out", "t.csv"])) == 3
+    assert (
+        run_gaze(
+            parser.parse_args(["gaze", "record", "--source", "v.mp4", "--calibration", "c.json", "--out", "t.csv"])
+        )
+        == 3
+    )
     assert calls == [("calibrate", "c.json"), ("record", "t.csv")]
     monkeypatch.setitem(sys.modules, "gaze.webcam.commands", None)
     with pytest.raises(GazeError, match="gaze record: the webcam estimator is not available"):
-        run_gaze(parser.parse_args(["gaze", "record", "--source", "v.mp4", "--calibration", "c.json",
-                                    "--out", "t.csv"]))
+        run_gaze(
+            parser.parse_args(["gaze", "record", "--source", "v.mp4", "--calibration", "c.json", "--out", "t.csv"])
+        )
 
 
 def test_demo_trace() -> None:

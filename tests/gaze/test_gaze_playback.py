@@ -16,9 +16,7 @@ from gaze.trace.ivt import angular_speed, label_ivt
 from gaze.trace.playback import TraceSource
 
 
-def trace(
-    t: ArrayLike, x: ArrayLike, y: ArrayLike, confidence: ArrayLike | None = None, t0: float = 0.0
-) -> TraceData:
+def trace(t: ArrayLike, x: ArrayLike, y: ArrayLike, confidence: ArrayLike | None = None, t0: float = 0.0) -> TraceData:
     """A TraceData from plain sequences (NaN x = invalid), times shifted by ``t0``."""
     t = np.asarray(t, float) + t0
     confidence = np.ones_like(t) if confidence is None else np.asarray(confidence, float)

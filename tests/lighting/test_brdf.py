@@ -145,7 +145,9 @@ def _directional_albedo(device, theta_v, albedo, f0, roughness, grid=(1000, 256)
 def test_white_furnace_specular_and_combined(device, roughness):
     table = specular_albedo_table()
     size = table.shape[0]
-    rows = np.array([np.interp(roughness * (size - 1), np.arange(size), table[:, j, k]) for j in range(size) for k in range(2)])
+    rows = np.array(
+        [np.interp(roughness * (size - 1), np.arange(size), table[:, j, k]) for j in range(size) for k in range(2)]
+    )
     rows = rows.reshape(size, 2)
     for theta in (0.0, 0.6, 1.2, 1.45):
         spec = _directional_albedo(device, theta, (0.0, 0.0, 0.0), (1.0, 1.0, 1.0), roughness)

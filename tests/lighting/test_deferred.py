@@ -19,8 +19,17 @@ from warp_hybrid.timing import StageTimer
 H, W = 12, 16
 
 
-def _plane_gbuffer(device, albedo=(0.6, 0.4, 0.2), specular=(0.0, 0.0, 0.0), roughness=0.5, opacity=1.0, ior=1.5,
-                   emission=(0.0, 0.0, 0.0), material=0, background_cols=0) -> GBuffer:
+def _plane_gbuffer(
+    device,
+    albedo=(0.6, 0.4, 0.2),
+    specular=(0.0, 0.0, 0.0),
+    roughness=0.5,
+    opacity=1.0,
+    ior=1.5,
+    emission=(0.0, 0.0, 0.0),
+    material=0,
+    background_cols=0,
+) -> GBuffer:
     """Every pixel sees the plane y = 0 (normal +Y) at x = column - W/2, z = row - H/2;
     the first ``background_cols`` columns are background."""
     gb = GBuffer.allocate(W, H, device)
@@ -49,7 +58,9 @@ def _plane_gbuffer(device, albedo=(0.6, 0.4, 0.2), specular=(0.0, 0.0, 0.0), rou
 
 def _scene(device, lights=(), environment=None, materials=None) -> DeviceScene:
     mats = materials or [Material("/m")]
-    return DeviceScene(make_scene([quad((0, 0, 0), (1, 0, 0), (0, 0, 1))], mats, lights=list(lights), environment=environment), device)
+    return DeviceScene(
+        make_scene([quad((0, 0, 0), (1, 0, 0), (0, 0, 1))], mats, lights=list(lights), environment=environment), device
+    )
 
 
 def _shade(device, ds, gb, transmittance=None, threads=None, eye=(0.0, 5.0, 8.0)) -> np.ndarray:
@@ -87,7 +98,9 @@ def test_constant_dome_ambient_emission_and_background(device):
     gb = _plane_gbuffer(device, albedo=tuple(albedo), emission=(0.1, 0.0, 0.0), background_cols=3)
     color = _shade(device, _scene(device, environment=dome), gb)
     # SH irradiance of a constant dome is pi L, so a Lambertian returns albedo * L
-    np.testing.assert_allclose(color[:, 3:].reshape(-1, 3), np.tile(albedo * [0.3, 0.5, 0.7] + [0.1, 0, 0], (H * (W - 3), 1)), rtol=1e-5)
+    np.testing.assert_allclose(
+        color[:, 3:].reshape(-1, 3), np.tile(albedo * [0.3, 0.5, 0.7] + [0.1, 0, 0], (H * (W - 3), 1)), rtol=1e-5
+    )
     np.testing.assert_allclose(color[:, :3].reshape(-1, 3), np.tile([0.3, 0.5, 0.7], (H * 3, 1)), rtol=1e-6)
     dark = _shade(device, _scene(device), _plane_gbuffer(device, background_cols=3))
     np.testing.assert_array_equal(dark, 0.0)
@@ -96,9 +109,17 @@ def test_constant_dome_ambient_emission_and_background(device):
 def test_specular_surface_in_a_white_furnace(device):
     # a smooth grey dielectric under a uniform dome reflects about what it receives
     dome = Environment("/dome", (1.0, 1.0, 1.0))
-    color = _shade(device, _scene(device, environment=dome), _plane_gbuffer(device, albedo=(0.96, 0.96, 0.96), specular=(0.04, 0.04, 0.04), roughness=0.3))
+    color = _shade(
+        device,
+        _scene(device, environment=dome),
+        _plane_gbuffer(device, albedo=(0.96, 0.96, 0.96), specular=(0.04, 0.04, 0.04), roughness=0.3),
+    )
     assert 0.93 <= color.min() and color.max() <= 1.0 + 1e-4
-    metal = _shade(device, _scene(device, environment=dome), _plane_gbuffer(device, albedo=(0, 0, 0), specular=(1.0, 0.8, 0.3), roughness=0.0))
+    metal = _shade(
+        device,
+        _scene(device, environment=dome),
+        _plane_gbuffer(device, albedo=(0, 0, 0), specular=(1.0, 0.8, 0.3), roughness=0.0),
+    )
     # the centre pixel is the origin, seen from (0, 5, 8): Schlick's F at that angle
     f0 = np.array([1.0, 0.8, 0.3])
     n_dot_v = 5.0 / math.sqrt(89.0)
@@ -133,18 +154,30 @@ def test_transmissive_raster_approximation(device):
     dome = Environment("/dome", (1.0, 1.0, 1.0))
     mats = [glass, red_pane]
     top = (0.0, 8.0, 0.01)  # look straight down: normal incidence
-    clear = _shade(device, _scene(device, environment=dome, materials=mats),
-                   _plane_gbuffer(device, albedo=(1, 1, 1), specular=(0.04,) * 3, roughness=0.0, opacity=0.0), eye=top)
+    clear = _shade(
+        device,
+        _scene(device, environment=dome, materials=mats),
+        _plane_gbuffer(device, albedo=(1, 1, 1), specular=(0.04,) * 3, roughness=0.0, opacity=0.0),
+        eye=top,
+    )
     # Fresnel reflection of the dome (~4%) + the dome seen through (~96%)
     np.testing.assert_allclose(clear[H // 2, W // 2], 1.0, atol=0.02)
-    red = _shade(device, _scene(device, environment=dome, materials=mats),
-                 _plane_gbuffer(device, albedo=(1, 0, 0), specular=(0.04,) * 3, roughness=0.0, opacity=0.0, material=1), eye=top)
+    red = _shade(
+        device,
+        _scene(device, environment=dome, materials=mats),
+        _plane_gbuffer(device, albedo=(1, 0, 0), specular=(0.04,) * 3, roughness=0.0, opacity=0.0, material=1),
+        eye=top,
+    )
     px = red[H // 2, W // 2]
     assert px[0] == pytest.approx(1.0, abs=0.02) and 0.02 < px[1] < 0.06 and px[1] == pytest.approx(px[2])
     # without a dome, glass is lit like a tinted Lambertian weighted by (1 - F)
     sun = Light(LightKind.DISTANT, "/sun", (3.0, 3.0, 3.0), direction=(0.0, -1.0, 0.0))
-    lit = _shade(device, _scene(device, [sun], materials=mats),
-                 _plane_gbuffer(device, albedo=(1, 1, 1), specular=(0.0,) * 3, opacity=0.0), eye=top)
+    lit = _shade(
+        device,
+        _scene(device, [sun], materials=mats),
+        _plane_gbuffer(device, albedo=(1, 1, 1), specular=(0.0,) * 3, opacity=0.0),
+        eye=top,
+    )
     assert lit[H // 2, W // 2, 0] == pytest.approx(3.0 / math.pi * 0.96, rel=0.01)
 
 

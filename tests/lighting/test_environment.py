@@ -8,7 +8,13 @@ import numpy as np
 import pytest
 import warp as wp
 
-from warp_hybrid.lighting.ambient import AmbientGPU, EnvironmentLighting, dome_irradiance, prefiltered_radiance, radiance_mips
+from warp_hybrid.lighting.ambient import (
+    AmbientGPU,
+    EnvironmentLighting,
+    dome_irradiance,
+    prefiltered_radiance,
+    radiance_mips,
+)
 from warp_hybrid.scene.builders import make_scene, quad
 from warp_hybrid.scene.device import DeviceScene, SceneGPU
 from warp_hybrid.scene.environment import (
@@ -51,7 +57,9 @@ def atan2_kernel(y: wp.array(dtype=float), x: wp.array(dtype=float), out: wp.arr
     out[i] = fast_atan2(y[i], x[i])
 
 
-def _dome_scene(device: str, pixels: np.ndarray | None, color=(1.0, 1.0, 1.0), world_to_light=None, scale=None, bias=None):
+def _dome_scene(
+    device: str, pixels: np.ndarray | None, color=(1.0, 1.0, 1.0), world_to_light=None, scale=None, bias=None
+):
     images, textures, tex = [], [], -1
     if pixels is not None:
         images = [TextureImage("<test>", np.ascontiguousarray(pixels, dtype=np.float32))]
@@ -60,7 +68,9 @@ def _dome_scene(device: str, pixels: np.ndarray | None, color=(1.0, 1.0, 1.0), w
     env = Environment("/dome", color, tex)
     if world_to_light is not None:
         env.world_to_light = np.asarray(world_to_light, np.float32)
-    scene = make_scene([quad((0, 0, 0), (1, 0, 0), (0, 1, 0))], [Material("m")], environment=env, images=images, textures=textures)
+    scene = make_scene(
+        [quad((0, 0, 0), (1, 0, 0), (0, 1, 0))], [Material("m")], environment=env, images=images, textures=textures
+    )
     return DeviceScene(scene, device)
 
 
@@ -76,7 +86,12 @@ def _eval(device: str, ds: DeviceScene, dirs: np.ndarray, roughness: float = 0.0
     wp.launch(
         env_kernel,
         dim=count,
-        inputs=[ds.gpu, amb.gpu, wp.array(np.asarray(dirs, np.float32), dtype=wp.vec3, device=device), float(roughness)],
+        inputs=[
+            ds.gpu,
+            amb.gpu,
+            wp.array(np.asarray(dirs, np.float32), dtype=wp.vec3, device=device),
+            float(roughness),
+        ],
         outputs=list(out.values()),
         device=device,
     )
@@ -108,8 +123,13 @@ def test_fast_atan2_is_float_accurate(device):
     y = np.concatenate([np.sin(angle) * radius, special_y]).astype(np.float32)
     x = np.concatenate([np.cos(angle) * radius, special_x]).astype(np.float32)
     out = wp.zeros(y.size, dtype=float, device=device)
-    wp.launch(atan2_kernel, dim=y.size, inputs=[wp.array(y, device=device), wp.array(x, device=device)], outputs=[out],
-              device=device)
+    wp.launch(
+        atan2_kernel,
+        dim=y.size,
+        inputs=[wp.array(y, device=device), wp.array(x, device=device)],
+        outputs=[out],
+        device=device,
+    )
     got = out.numpy()
     exact = np.arctan2(y.astype(np.float64), x.astype(np.float64))
     ulp = np.spacing(np.abs(exact).astype(np.float32)).astype(np.float64)
@@ -139,7 +159,9 @@ def test_latlong_kernel_matches_host_and_fetches_texels(device):
     assert np.allclose(rot @ [-1, 0, 0], [0, 0, 1])
     ds_rot = _dome_scene(device, pixels, world_to_light=rot)
     centre = _eval(device, ds_rot, np.array([[-1.0, 0.0, 0.0]]))["radiance"][0]
-    np.testing.assert_allclose(centre, pixels[h // 2 - 1 : h // 2 + 1, w // 2 - 1 : w // 2 + 1, :3].mean(axis=(0, 1)), rtol=1e-4)
+    np.testing.assert_allclose(
+        centre, pixels[h // 2 - 1 : h // 2 + 1, w // 2 - 1 : w // 2 + 1, :3].mean(axis=(0, 1)), rtol=1e-4
+    )
 
 
 def test_sh_irradiance_of_constant_and_linear_domes(device):
@@ -188,7 +210,9 @@ def test_ambient_data_is_cached_per_scene_and_follows_the_dome(device):
     ds = _dome_scene(device, None, color=(0.2, 0.4, 0.6))
     first = EnvironmentLighting.for_scene(ds)
     assert EnvironmentLighting.for_scene(ds) is first
-    brighter = make_scene([quad((0, 0, 0), (1, 0, 0), (0, 1, 0))], [Material("m")], environment=Environment("/dome", (1.0, 1.0, 1.0)))
+    brighter = make_scene(
+        [quad((0, 0, 0), (1, 0, 0), (0, 1, 0))], [Material("m")], environment=Environment("/dome", (1.0, 1.0, 1.0))
+    )
     ds.update(brighter)
     second = EnvironmentLighting.for_scene(ds)
     assert second is not first

@@ -46,8 +46,13 @@ def test_subtended_angle_matches_atan2(device):
     s = (np.sin(theta) * scale).astype(np.float32)
     c = (np.cos(theta) * scale).astype(np.float32)
     out = wp.zeros(len(theta), dtype=float, device=device)
-    wp.launch(angle_kernel, dim=len(theta), inputs=[wp.array(s, dtype=float, device=device), wp.array(c, dtype=float, device=device)],
-              outputs=[out], device=device)
+    wp.launch(
+        angle_kernel,
+        dim=len(theta),
+        inputs=[wp.array(s, dtype=float, device=device), wp.array(c, dtype=float, device=device)],
+        outputs=[out],
+        device=device,
+    )
     ref = np.arctan2(s.astype(np.float64), c.astype(np.float64))
     got = out.numpy()
     assert np.abs(got - ref).max() < 1e-5
@@ -103,13 +108,19 @@ def test_sphere_light_inverse_square(device):
     np.testing.assert_allclose(s["distance"], d, rtol=1e-6)
     np.testing.assert_allclose(s["wi"], np.tile([0.0, 1.0, 0.0], (len(d), 1)), atol=1e-6)
     # a tilted receiver gets the cosine; a receiver facing away gets nothing
-    tilt = _sample(device, Light(LightKind.SPHERE, "/bulb", tuple(color), radius=0.25), [(0, -2, 0)] * 2,
-                   [(0, 0.6, 0.8), (0, -1, 0)])
+    tilt = _sample(
+        device,
+        Light(LightKind.SPHERE, "/bulb", tuple(color), radius=0.25),
+        [(0, -2, 0)] * 2,
+        [(0, 0.6, 0.8), (0, -1, 0)],
+    )
     np.testing.assert_allclose(tilt["irradiance"][0], 0.6 * math.pi * 0.0625 / 4.0 * color, rtol=1e-5)
     np.testing.assert_array_equal(tilt["irradiance"][1], 0.0)
     # normalize: power independent of radius => E = color / (4 d^2)
     for radius in (0.1, 0.5):
-        norm = _sample(device, Light(LightKind.SPHERE, "/b", tuple(color), radius=radius, normalize=True), pts[2:], (0, 1, 0))
+        norm = _sample(
+            device, Light(LightKind.SPHERE, "/b", tuple(color), radius=radius, normalize=True), pts[2:], (0, 1, 0)
+        )
         np.testing.assert_allclose(norm["e_normal"], np.outer(1.0 / (4.0 * d[2:] ** 2), color), rtol=1e-5)
     # radius 0: a point light with intensity = color
     point = _sample(device, Light(LightKind.SPHERE, "/p", tuple(color), radius=0.0), pts, (0, 1, 0))
@@ -151,8 +162,15 @@ def test_rect_light_matches_form_factor_quadrature(device, flip_winding):
     if flip_winding:
         u = -u
     direction = np.array([0.0, -1.0, 0.0])  # emits downwards
-    light = Light(LightKind.RECT, "/rect", (2.0, 2.0, 2.0), position=tuple(center), direction=tuple(direction),
-                  axis_u=tuple(u), axis_v=tuple(v))
+    light = Light(
+        LightKind.RECT,
+        "/rect",
+        (2.0, 2.0, 2.0),
+        position=tuple(center),
+        direction=tuple(direction),
+        axis_u=tuple(u),
+        axis_v=tuple(v),
+    )
     pts = [c[0] for c in RECT_CASES]
     nrm = [np.array(c[1]) / np.linalg.norm(c[1]) for c in RECT_CASES]
     s = _sample(device, light, pts, nrm)
@@ -203,8 +221,15 @@ def test_rect_light_matches_polygon_formula_everywhere(device):
     pts = center + rng.normal(size=(3000, 3)) * 1.5
     nrm = rng.normal(size=(3000, 3))
     nrm /= np.linalg.norm(nrm, axis=1, keepdims=True)
-    light = Light(LightKind.RECT, "/rect", (1.0, 1.0, 1.0), position=tuple(center), direction=tuple(direction),
-                  axis_u=tuple(u), axis_v=tuple(v))
+    light = Light(
+        LightKind.RECT,
+        "/rect",
+        (1.0, 1.0, 1.0),
+        position=tuple(center),
+        direction=tuple(direction),
+        axis_u=tuple(u),
+        axis_v=tuple(v),
+    )
     got = _sample(device, light, pts, nrm)["irradiance"][:, 0]
     ref = np.array([_rect_polygon_reference(p, n, center, u, v, direction) for p, n in zip(pts, nrm)])
     corners = np.stack([center + su * u + sv * v for su in (-1, 1) for sv in (-1, 1)])
@@ -220,7 +245,9 @@ def test_rect_light_far_field_and_normalize(device):
     area = 4 * 0.3 * 0.2
     direction = np.array([0.0, 0.0, 1.0])  # rect in the XY plane, emitting toward +Z
     radiance = 5.0
-    light = Light(LightKind.RECT, "/rect", (radiance,) * 3, direction=tuple(direction), axis_u=tuple(u), axis_v=tuple(v))
+    light = Light(
+        LightKind.RECT, "/rect", (radiance,) * 3, direction=tuple(direction), axis_u=tuple(u), axis_v=tuple(v)
+    )
     d = 40.0
     p = np.array([0.3 * d, 0.0, d])
     to_light = -p / np.linalg.norm(p)
@@ -234,8 +261,20 @@ def test_rect_light_far_field_and_normalize(device):
     assert s["e_normal"][0][0] == pytest.approx(radiance * area * cos_e / r2, rel=1e-5)
     np.testing.assert_allclose(s["wi"][0], to_light, atol=1e-6)
     assert s["distance"][0] == pytest.approx(math.sqrt(r2), rel=1e-6)
-    norm = _sample(device, Light(LightKind.RECT, "/r", (radiance,) * 3, direction=tuple(direction), axis_u=tuple(u),
-                                 axis_v=tuple(v), normalize=True), [p], n)
+    norm = _sample(
+        device,
+        Light(
+            LightKind.RECT,
+            "/r",
+            (radiance,) * 3,
+            direction=tuple(direction),
+            axis_u=tuple(u),
+            axis_v=tuple(v),
+            normalize=True,
+        ),
+        [p],
+        n,
+    )
     assert norm["irradiance"][0][0] == pytest.approx(far / area, rel=2e-3)
 
 
@@ -247,14 +286,23 @@ def test_disk_light_point_form_factor(device):
     s = _sample(device, light, [p], (0, 1, 0))
     cos = 2.0 / dist
     assert s["irradiance"][0][0] == pytest.approx(4.0 * math.pi * r * r * cos * cos / dist**2, rel=1e-5)
-    normalized = _sample(device, Light(LightKind.DISK, "/d", (4.0,) * 3, direction=(0, -1, 0), radius=r, normalize=True), [p], (0, 1, 0))
+    normalized = _sample(
+        device, Light(LightKind.DISK, "/d", (4.0,) * 3, direction=(0, -1, 0), radius=r, normalize=True), [p], (0, 1, 0)
+    )
     assert normalized["irradiance"][0][0] == pytest.approx(4.0 * cos * cos / dist**2, rel=1e-5)
 
 
 def test_spot_cone(device):
     def spot(softness: float) -> Light:
-        return Light(LightKind.SPHERE, "/spot", (1.0, 1.0, 1.0), direction=(0.0, -1.0, 0.0), radius=0.1,
-                     cone_angle_deg=30.0, cone_softness=softness)
+        return Light(
+            LightKind.SPHERE,
+            "/spot",
+            (1.0, 1.0, 1.0),
+            direction=(0.0, -1.0, 0.0),
+            radius=0.1,
+            cone_angle_deg=30.0,
+            cone_softness=softness,
+        )
 
     angles = np.radians([0.0, 10.0, 20.0, 29.0, 31.0, 60.0, 120.0])
     pts = np.stack([np.sin(angles), -np.cos(angles), np.zeros_like(angles)], axis=1) * 2.0

@@ -6,7 +6,15 @@ import numpy as np
 import pytest
 import warp as wp
 
-from warp_hybrid.post.color import Srgb8Encoder, luminance, make_srgb8_encoder, srgb_decode, srgb_encode, srgb_quantize, srgb_thresholds
+from warp_hybrid.post.color import (
+    Srgb8Encoder,
+    luminance,
+    make_srgb8_encoder,
+    srgb_decode,
+    srgb_encode,
+    srgb_quantize,
+    srgb_thresholds,
+)
 from warp_hybrid.post.tonemap import tonemap_aces, tonemap_clamp, tonemap_reinhard
 
 wp.set_module_options({"enable_backward": False})
@@ -39,8 +47,11 @@ def _curves(device: str, values: np.ndarray) -> dict[str, np.ndarray]:
 def test_srgb_breakpoints_and_round_trip():
     assert srgb_encode(np.array([0.0031308]))[0] == pytest.approx(0.0404500, abs=1e-6)
     assert srgb_decode(np.array([0.04045]))[0] == pytest.approx(0.0031308, abs=1e-7)
-    np.testing.assert_allclose(srgb_encode(np.array([0.0, 0.001, 0.18, 0.5, 1.0, 2.0])),
-                               [0.0, 0.01292, 0.461356, 0.735357, 1.0, 1.0], atol=2e-6)
+    np.testing.assert_allclose(
+        srgb_encode(np.array([0.0, 0.001, 0.18, 0.5, 1.0, 2.0])),
+        [0.0, 0.01292, 0.461356, 0.735357, 1.0, 1.0],
+        atol=2e-6,
+    )
     np.testing.assert_allclose(srgb_decode(np.array([0, 128, 255], np.uint8)), [0.0, 0.2158605, 1.0], atol=1e-6)
     x = np.linspace(0.0, 1.0, 2001)
     np.testing.assert_allclose(srgb_decode(srgb_encode(x)), x, atol=2e-6)
@@ -65,7 +76,9 @@ def test_kernel_curves(device):
         assert np.all(np.diff(y) >= 0.0), name  # monotone
         assert y.max() <= 1.0 and y.min() >= 0.0, name
     np.testing.assert_allclose(c["reinhard"], x / (1.0 + x), rtol=1e-6)
-    assert c["aces"][-1] == 1.0 and c["aces"][250] == pytest.approx(0.5 * (2.51 * 0.5 + 0.03) / (0.5 * (2.43 * 0.5 + 0.59) + 0.14), rel=1e-6)
+    assert c["aces"][-1] == 1.0 and c["aces"][250] == pytest.approx(
+        0.5 * (2.51 * 0.5 + 0.03) / (0.5 * (2.43 * 0.5 + 0.59) + 0.14), rel=1e-6
+    )
     np.testing.assert_allclose(c["clamped"], np.clip(x, 0.0, 1.0))
     # negative input (e.g. from bias) maps to black
     assert _curves(device, np.array([-1.0]))["aces"][0] == 0.0

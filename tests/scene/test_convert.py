@@ -202,9 +202,7 @@ def test_gltf_base_colour_and_texture_round_trip(tmp_path: Path, container: str)
 
 def test_gltf_alpha_mask_emission_and_double_sided(tmp_path: Path) -> None:
     src = tmp_path / "masked.gltf"
-    _write_textured_gltf(
-        src, alphaMode="MASK", alphaCutoff=0.3, emissiveFactor=[1.0, 0.5, 0.0], doubleSided=True
-    )
+    _write_textured_gltf(src, alphaMode="MASK", alphaCutoff=0.3, emissiveFactor=[1.0, 0.5, 0.0], doubleSided=True)
     stage = mesh_file_to_stage(src, texture_dir=tmp_path / "tex")
     (mesh,) = _meshes(stage)
     surface = _surface(stage, mesh)

@@ -16,7 +16,10 @@ from warp_hybrid.scene.usd_loader import UsdSceneSource
 
 def test_scene_info_of_built_scene():
     scene = make_scene(
-        [quad((0, 0, 0), (2, 0, 0), (0, 3, 0), material=0, name="/Q"), quad((0, 0, 1), (1, 0, 0), (0, 1, 0), material=1, name="/G")],
+        [
+            quad((0, 0, 0), (2, 0, 0), (0, 3, 0), material=0, name="/Q"),
+            quad((0, 0, 1), (1, 0, 0), (0, 1, 0), material=1, name="/G"),
+        ],
         [Material("matte"), Material("glass", opacity=0.0, ior=1.5)],
         lights=[Light(LightKind.SPHERE, "/Lamp", (1.0, 1.0, 1.0))],
         cameras=[look_at_camera((0, 0, 5), (0, 0, 0), name="/Cam")],

@@ -29,8 +29,10 @@ def test_every_shared_scene_loads_with_manifest_counts(shared_scenes):
         if "textures" in entry:
             assert len(scene.images) == entry["textures"], name
         if "lights" in entry:
-            kinds = sorted([_KIND_NAMES[li.kind.name.lower()] for li in scene.lights]
-                           + (["DomeLight"] if scene.environment is not None else []))
+            kinds = sorted(
+                [_KIND_NAMES[li.kind.name.lower()] for li in scene.lights]
+                + (["DomeLight"] if scene.environment is not None else [])
+            )
             assert kinds == sorted(entry["lights"]), name
         if "cameras" in entry:
             assert [c.name for c in scene.cameras] == entry["cameras"], name

@@ -55,7 +55,13 @@ def test_distant_sphere_rect_disk_lights(tmp_path):
     disk.CreateColorTemperatureAttr(3000.0)
 
     scene = save_and_load(stage, path)
-    assert [li.name for li in scene.lights] == ["/World/Sun", "/World/Spot", "/World/Point", "/World/Rect", "/World/Disk"]
+    assert [li.name for li in scene.lights] == [
+        "/World/Sun",
+        "/World/Spot",
+        "/World/Point",
+        "/World/Rect",
+        "/World/Disk",
+    ]
 
     s = _light(scene, "/World/Sun")
     assert s.kind == LightKind.DISTANT and s.angle_deg == pytest.approx(1.5)

@@ -42,9 +42,17 @@ def test_binding_inheritance_and_fallbacks(tmp_path):
 def test_preview_surface_constants_and_custom_data(tmp_path):
     stage, path = new_stage(tmp_path)
     mat, _ = preview_material(
-        stage, "/World/Looks/Glass",
-        diffuseColor=(0.9, 0.8, 0.7), emissiveColor=(1.0, 2.0, 3.0), specularColor=(0.5, 0.4, 0.3),
-        useSpecularWorkflow=1, metallic=0.25, roughness=0.1, opacity=0.0, opacityThreshold=0.0, ior=1.33,
+        stage,
+        "/World/Looks/Glass",
+        diffuseColor=(0.9, 0.8, 0.7),
+        emissiveColor=(1.0, 2.0, 3.0),
+        specularColor=(0.5, 0.4, 0.3),
+        useSpecularWorkflow=1,
+        metallic=0.25,
+        roughness=0.1,
+        opacity=0.0,
+        opacityThreshold=0.0,
+        ior=1.33,
     )
     mat.GetPrim().SetCustomDataByKey("sa:thinWalled", True)
     mat.GetPrim().SetCustomDataByKey("sa:attenuationColor", Gf.Vec3f(0.1, 0.2, 0.3))
@@ -101,7 +109,17 @@ def test_texture_channels_scale_bias_wrap_and_uv_set(tmp_path):
     _write_png(tmp_path / "c.png", np.full((2, 2, 3), (0, 0, 255), np.uint8))  # red
     stage, path = new_stage(tmp_path)
     mat, surf = preview_material(stage, "/World/Looks/T")
-    a = _texture(stage, "/World/Looks/T", "A", "a.png", scale=(2, 2, 2, 1), bias=(0.1, 0.1, 0.1, 0), wrapS="clamp", wrapT="mirror", sourceColorSpace="sRGB")
+    a = _texture(
+        stage,
+        "/World/Looks/T",
+        "A",
+        "a.png",
+        scale=(2, 2, 2, 1),
+        bias=(0.1, 0.1, 0.1, 0),
+        wrapS="clamp",
+        wrapT="mirror",
+        sourceColorSpace="sRGB",
+    )
     b = _texture(stage, "/World/Looks/T", "B", "b.png", wrapS="black", sourceColorSpace="raw")
     c = _texture(stage, "/World/Looks/T", "C", "c.png", scale=(3, 1, 1, 1), bias=(0.5, 0, 0, 0))
     reader = _reader(stage, "/World/Looks/T", "uv2")
@@ -154,8 +172,10 @@ def test_srgb_decode_and_orientation_of_png(tmp_path):
         _connect(surf, "diffuseColor", Sdf.ValueTypeNames.Color3f, tex, "rgb")
         bind(unit_quad(stage, f"/World/{space}"), mat)
     scene = save_and_load(stage, path)
-    px = {space: scene.images[scene.textures[_material_of(scene, f"/World/{space}").diffuse_texture].image].pixels
-          for space in ("sRGB", "raw", "auto")}
+    px = {
+        space: scene.images[scene.textures[_material_of(scene, f"/World/{space}").diffuse_texture].image].pixels
+        for space in ("sRGB", "raw", "auto")
+    }
     assert px["sRGB"].shape == (2, 3, 4) and px["sRGB"].dtype == np.float32
     np.testing.assert_allclose(px["sRGB"][0, 0], (1, 0, 0, 1), atol=1e-6)  # row 0 is the top
     assert px["sRGB"][1, 2, 0] == pytest.approx(0.2158605, abs=1e-6)  # sRGB 128 -> linear

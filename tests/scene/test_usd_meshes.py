@@ -52,7 +52,9 @@ def test_hole_indices_drop_faces(tmp_path):
 
 def test_left_handed_orientation_flips_winding(tmp_path):
     stage, path = new_stage(tmp_path)
-    add_mesh(stage, "/World/L", [(0, 0, 0), (1, 0, 0), (0, 1, 0)], [3], [0, 1, 2], Orientation=UsdGeom.Tokens.leftHanded)
+    add_mesh(
+        stage, "/World/L", [(0, 0, 0), (1, 0, 0), (0, 1, 0)], [3], [0, 1, 2], Orientation=UsdGeom.Tokens.leftHanded
+    )
     add_mesh(stage, "/World/R", [(0, 0, 1), (1, 0, 1), (0, 1, 1)], [3], [0, 1, 2])
     scene = save_and_load(stage, path)
     n = triangle_normals(scene)
@@ -67,8 +69,14 @@ def test_mirroring_transform_keeps_winding_and_normals_consistent(tmp_path):
     stage, path = new_stage(tmp_path)
     x = UsdGeom.Xform.Define(stage, "/World/Mirror")
     x.AddScaleOp().Set(Gf.Vec3f(-1, 1, 1))
-    add_mesh(stage, "/World/Mirror/T", [(0, 0, 0), (1, 0, 0), (0, 1, 0)], [3], [0, 1, 2],
-             Normals=Vt.Vec3fArray([Gf.Vec3f(0, 0, 1)] * 3))
+    add_mesh(
+        stage,
+        "/World/Mirror/T",
+        [(0, 0, 0), (1, 0, 0), (0, 1, 0)],
+        [3],
+        [0, 1, 2],
+        Normals=Vt.Vec3fArray([Gf.Vec3f(0, 0, 1)] * 3),
+    )
     scene = save_and_load(stage, path)
     np.testing.assert_allclose(scene.points[:, 0], [0, -1, 0], atol=1e-6)
     np.testing.assert_allclose(scene.corner_normals[0], np.tile([0, 0, 1], (3, 1)), atol=1e-6)
@@ -112,7 +120,9 @@ def test_indexed_primvar_normals_override_normals_attribute(tmp_path):
     stage, path = new_stage(tmp_path)
     mesh = _two_tris(stage)
     mesh.CreateNormalsAttr([Gf.Vec3f(1, 0, 0)] * 4)  # must be ignored
-    pv = UsdGeom.PrimvarsAPI(mesh).CreatePrimvar("normals", Sdf.ValueTypeNames.Normal3fArray, UsdGeom.Tokens.faceVarying)
+    pv = UsdGeom.PrimvarsAPI(mesh).CreatePrimvar(
+        "normals", Sdf.ValueTypeNames.Normal3fArray, UsdGeom.Tokens.faceVarying
+    )
     pv.Set([Gf.Vec3f(0, 0, 2), Gf.Vec3f(0, 3, 0)])  # not unit: must be normalised
     pv.SetIndices(Vt.IntArray([0, 0, 1, 1, 0, 1]))
     scene = save_and_load(stage, path)
@@ -166,7 +176,9 @@ def test_wrong_primvar_counts_warn_and_fall_back(tmp_path):
     mesh = _two_tris(stage)
     mesh.CreateNormalsAttr([Gf.Vec3f(1, 0, 0)] * 3)  # vertex needs 4
     mesh.SetNormalsInterpolation("vertex")
-    UsdGeom.PrimvarsAPI(mesh).CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2fArray, "faceVarying").Set([Gf.Vec2f(1, 1)] * 5)
+    UsdGeom.PrimvarsAPI(mesh).CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2fArray, "faceVarying").Set(
+        [Gf.Vec2f(1, 1)] * 5
+    )
     scene = save_and_load(stage, path)
     np.testing.assert_allclose(scene.corner_normals.reshape(-1, 3), np.tile([0, 0, 1], (6, 1)), atol=1e-6)
     np.testing.assert_array_equal(scene.corner_uvs, 0.0)

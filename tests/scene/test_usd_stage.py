@@ -137,7 +137,11 @@ def test_scene_at_reuses_static_data_and_updates_animated_points(tmp_path):
     moved = np.abs(a.points - b.points).max(axis=1) > 0
     static, mover_r, wobble_r = a.meshes
     assert not moved[static.first_point : static.first_point + static.point_count].any()
-    np.testing.assert_allclose(b.points[mover_r.first_point : mover_r.first_point + 4, 1] - a.points[mover_r.first_point : mover_r.first_point + 4, 1], 2.0)
+    np.testing.assert_allclose(
+        b.points[mover_r.first_point : mover_r.first_point + 4, 1]
+        - a.points[mover_r.first_point : mover_r.first_point + 4, 1],
+        2.0,
+    )
     np.testing.assert_allclose(b.points[wobble_r.first_point + 1], (2, 0, 0))
     assert (b.time, a.time) == (4.0, 0.0)
 

@@ -11,7 +11,9 @@ from warp_hybrid.scene.model import Scene
 from warp_hybrid.scene.usd_loader import load_scene
 
 
-def new_stage(tmp_path: Path, name: str = "scene.usda", up_axis: str = "Y", meters_per_unit: float = 1.0) -> tuple[Usd.Stage, Path]:
+def new_stage(
+    tmp_path: Path, name: str = "scene.usda", up_axis: str = "Y", meters_per_unit: float = 1.0
+) -> tuple[Usd.Stage, Path]:
     """A new stage file in ``tmp_path`` with a /World default prim."""
     path = tmp_path / name
     stage = Usd.Stage.CreateNew(str(path))

@@ -63,7 +63,10 @@ def test_offset_avoids_acne_and_leaks_at_any_scale(device: str, scale: float) ->
     occ_pts, occ_idx = _grid(np.array([1.0, 0.5, -0.5]) * scale + gap * normal, u, v, 1.5 * size, 9)
     pts = np.concatenate([recv_pts, occ_pts]).astype(np.float32)
     idx = np.concatenate([recv_idx, occ_idx + len(recv_pts)]).astype(np.int32)
-    mesh = wp.Mesh(points=wp.array(pts, dtype=wp.vec3, device=device), indices=wp.array(idx.reshape(-1), dtype=wp.int32, device=device))
+    mesh = wp.Mesh(
+        points=wp.array(pts, dtype=wp.vec3, device=device),
+        indices=wp.array(idx.reshape(-1), dtype=wp.int32, device=device),
+    )
     S = scene_scale((pts.min(axis=0), pts.max(axis=0)))
 
     # ray starts: barycentric points of receiver triangles (as the G-buffer computes them)
@@ -82,8 +85,15 @@ def test_offset_avoids_acne_and_leaks_at_any_scale(device: str, scale: float) ->
     wp.launch(
         _cast_from_offsets,
         dim=len(tri),
-        inputs=[mesh.id, wp.array(starts, dtype=wp.vec3, device=device), wp.array(dirs.astype(np.float32), dtype=wp.vec3, device=device),
-                wp.vec3(*normal.tolist()), S, origins, hit_t],
+        inputs=[
+            mesh.id,
+            wp.array(starts, dtype=wp.vec3, device=device),
+            wp.array(dirs.astype(np.float32), dtype=wp.vec3, device=device),
+            wp.vec3(*normal.tolist()),
+            S,
+            origins,
+            hit_t,
+        ],
         device=device,
     )
     t = hit_t.numpy().astype(np.float64)

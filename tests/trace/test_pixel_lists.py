@@ -136,7 +136,9 @@ def test_foreign_list_entries_are_skipped_and_feature_mismatches_rejected(device
         trace_scene(scene, cam, device, W, H, features=SceneFeatures(shadows=True))
 
 
-@pytest.mark.parametrize("bad", [TraceSettings(max_depth=-1), TraceSettings(max_depth=99), TraceSettings(shadow_samples=0)])
+@pytest.mark.parametrize(
+    "bad", [TraceSettings(max_depth=-1), TraceSettings(max_depth=99), TraceSettings(shadow_samples=0)]
+)
 def test_bad_settings_are_rejected(bad: TraceSettings) -> None:
     with pytest.raises(RenderSettingsError):
         bad.validate()

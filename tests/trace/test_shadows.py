@@ -30,8 +30,14 @@ def _sphere_over_plane(tilt_deg: float, light: Light | None = None):
     4 units wide (24 pixels per unit)."""
     t = math.radians(tilt_deg)
     cx = 3.0 * math.tan(t)
-    mats = [Material("/plane", diffuse=(0.8, 0.8, 0.8), roughness=0.9), Material("/ball", diffuse=(0.5, 0.5, 0.5), roughness=0.9)]
-    meshes = [quad((cx - 4.0, 0.0, 4.0), (8.0, 0.0, 0.0), (0.0, 0.0, -8.0), 0), uv_sphere((0.0, 3.0, 0.0), 1.0, 96, 192, 1)]
+    mats = [
+        Material("/plane", diffuse=(0.8, 0.8, 0.8), roughness=0.9),
+        Material("/ball", diffuse=(0.5, 0.5, 0.5), roughness=0.9),
+    ]
+    meshes = [
+        quad((cx - 4.0, 0.0, 4.0), (8.0, 0.0, 0.0), (0.0, 0.0, -8.0), 0),
+        uv_sphere((0.0, 3.0, 0.0), 1.0, 96, 192, 1),
+    ]
     light = light or Light(LightKind.DISTANT, "/sun", (2.0, 2.0, 2.0), direction=(math.sin(t), -math.cos(t), 0.0))
     hfov = math.degrees(2.0 * math.atan(2.0 / 10.0))
     cam = look_at_camera((cx, 10.0, 0.0), (cx, 0.0, 0.0), up=(0.0, 0.0, -1.0), hfov_deg=hfov)
@@ -98,7 +104,10 @@ def _pane_scene(opacity: float, thin: bool = True):
         Material("/floor", diffuse=(0.8, 0.8, 0.8), roughness=0.9),
         Material("/pane", diffuse=(0.9, 0.1, 0.08), roughness=0.0, opacity=opacity, thin_walled=thin),
     ]
-    meshes = [quad((-3.0, 0.0, 3.0), (6.0, 0.0, 0.0), (0.0, 0.0, -6.0), 0), _grid_quad((-1.0, 1.0, 1.0), (2.0, 0.0, 0.0), (0.0, 0.0, -2.0), 8, 1)]
+    meshes = [
+        quad((-3.0, 0.0, 3.0), (6.0, 0.0, 0.0), (0.0, 0.0, -6.0), 0),
+        _grid_quad((-1.0, 1.0, 1.0), (2.0, 0.0, 0.0), (0.0, 0.0, -2.0), 8, 1),
+    ]
     light = Light(LightKind.DISTANT, "/sun", (2.0, 2.0, 2.0), direction=(0.0, -1.0, 0.0))
     cam = look_at_camera((0.0, 5.0, 6.0), (0.0, 0.0, 0.0))
     return make_scene(meshes, mats, lights=[light], cameras=[cam]), cam
@@ -109,7 +118,12 @@ def test_shadow_through_a_red_pane_is_red(device: str) -> None:
     floor under the pane keeps a red light, visibility = its luminance."""
     opacity = 0.3
     scene, cam = _pane_scene(opacity)
-    lit_scene = make_scene([quad((-3.0, 0.0, 3.0), (6.0, 0.0, 0.0), (0.0, 0.0, -6.0), 0)], scene.materials[:1], lights=scene.lights, cameras=[cam])
+    lit_scene = make_scene(
+        [quad((-3.0, 0.0, 3.0), (6.0, 0.0, 0.0), (0.0, 0.0, -6.0), 0)],
+        scene.materials[:1],
+        lights=scene.lights,
+        cameras=[cam],
+    )
     out = trace_scene(scene, cam, device, W, H, features=ALL_FEATURES)
     ref = trace_scene(lit_scene, cam, device, W, H, features=ALL_FEATURES)
     floor = (out.triangle_id >= 0) & (out.triangle_id < 2)
@@ -130,8 +144,14 @@ def test_shadow_through_a_red_pane_is_red(device: str) -> None:
 def test_alpha_cutouts_cast_no_shadow_where_cut_away(device: str, opacity: float) -> None:
     """A cut-out quad (threshold 0.5) over the floor: cut away entirely below the
     threshold (no shadow), an opaque occluder above it."""
-    mats = [Material("/floor", diffuse=(0.8, 0.8, 0.8), roughness=0.9), Material("/leaf", opacity=opacity, opacity_threshold=0.5)]
-    meshes = [quad((-3.0, 0.0, 3.0), (6.0, 0.0, 0.0), (0.0, 0.0, -6.0), 0), quad((-1.0, 1.0, 1.0), (2.0, 0.0, 0.0), (0.0, 0.0, -2.0), 1)]
+    mats = [
+        Material("/floor", diffuse=(0.8, 0.8, 0.8), roughness=0.9),
+        Material("/leaf", opacity=opacity, opacity_threshold=0.5),
+    ]
+    meshes = [
+        quad((-3.0, 0.0, 3.0), (6.0, 0.0, 0.0), (0.0, 0.0, -6.0), 0),
+        quad((-1.0, 1.0, 1.0), (2.0, 0.0, 0.0), (0.0, 0.0, -2.0), 1),
+    ]
     light = Light(LightKind.DISTANT, "/sun", (2.0, 2.0, 2.0), direction=(0.6, -1.0, 0.0))
     cam = look_at_camera((0.0, 5.0, 6.0), (0.0, 0.0, 0.0))
     out = trace_scene(make_scene(meshes, mats, lights=[light], cameras=[cam]), cam, device, W, H, features=ALL_FEATURES)
@@ -147,14 +167,25 @@ def test_alpha_cutouts_cast_no_shadow_where_cut_away(device: str, opacity: float
 def test_emitter_geometry_of_an_area_light_casts_no_shadow(device: str) -> None:
     """The emitting quad that sits at a rect light (as in the Cornell boxes) is skipped
     by shadow rays; an opaque quad between them still blocks."""
-    mats = [Material("/floor", diffuse=(0.8, 0.8, 0.8), roughness=0.9), emissive("/lamp", (5.0, 5.0, 5.0)), Material("/card")]
+    mats = [
+        Material("/floor", diffuse=(0.8, 0.8, 0.8), roughness=0.9),
+        emissive("/lamp", (5.0, 5.0, 5.0)),
+        Material("/card"),
+    ]
     meshes = [
         quad((-3.0, 0.0, 3.0), (6.0, 0.0, 0.0), (0.0, 0.0, -6.0), 0),
         quad((-0.5, 2.98, 0.5), (0.0, 0.0, -1.0), (1.0, 0.0, 0.0), 1),  # the emitter just below the light, facing down
         quad((1.0, 1.5, 1.0), (1.0, 0.0, 0.0), (0.0, 0.0, -2.0), 2),  # a card casting a shadow
     ]
-    light = Light(LightKind.RECT, "/lamp", (5.0, 5.0, 5.0), position=(0.0, 3.0, 0.0), direction=(0.0, -1.0, 0.0),
-                  axis_u=(0.5, 0.0, 0.0), axis_v=(0.0, 0.0, 0.5))
+    light = Light(
+        LightKind.RECT,
+        "/lamp",
+        (5.0, 5.0, 5.0),
+        position=(0.0, 3.0, 0.0),
+        direction=(0.0, -1.0, 0.0),
+        axis_u=(0.5, 0.0, 0.0),
+        axis_v=(0.0, 0.0, 0.5),
+    )
     cam = look_at_camera((0.0, 2.5, 6.0), (0.0, 0.0, 0.0))
     out = trace_scene(make_scene(meshes, mats, lights=[light], cameras=[cam]), cam, device, W, H, features=ALL_FEATURES)
     floor = (out.triangle_id >= 0) & (out.triangle_id < 2)

@@ -36,7 +36,11 @@ def _fresnel(cos_i: np.ndarray, eta: float) -> np.ndarray:
 
 def test_mirror_reflects_the_pattern_at_the_predicted_pixels(device: str) -> None:
     """A mirror at 45 degrees turns the view by 90 degrees onto a red|blue wall."""
-    mats = [Material("/mirror", diffuse=(1.0, 1.0, 1.0), metallic=1.0, roughness=0.0), emissive("/red", RED), emissive("/blue", BLUE)]
+    mats = [
+        Material("/mirror", diffuse=(1.0, 1.0, 1.0), metallic=1.0, roughness=0.0),
+        emissive("/red", RED),
+        emissive("/blue", BLUE),
+    ]
     s = math.sqrt(0.5)
     # mirror through (0, 0, -5) with normal (-s, 0, s) (facing the camera and -x)
     mirror = quad((3.0 * s, -3.0, -5.0 + 3.0 * s), (-6.0 * s, 0.0, -6.0 * s), (0.0, 6.0, 0.0), 0)
@@ -191,7 +195,10 @@ def test_glass_sphere_flips_the_image_behind_it(device: str) -> None:
 def test_depth_limit_falls_back_to_raster_shading(device: str, max_depth: int) -> None:
     """max_depth 0 traces no secondary ray; 1 traces exactly one per mirror pixel and
     its hit is shaded without further rays."""
-    mats = [Material("/mirror", diffuse=(1.0, 1.0, 1.0), metallic=1.0, roughness=0.0), Material("/mirror2", diffuse=(1.0, 1.0, 1.0), metallic=1.0, roughness=0.0)]
+    mats = [
+        Material("/mirror", diffuse=(1.0, 1.0, 1.0), metallic=1.0, roughness=0.0),
+        Material("/mirror2", diffuse=(1.0, 1.0, 1.0), metallic=1.0, roughness=0.0),
+    ]
     a = quad((-3.0, -3.0, -5.0), (6.0, 0.0, 0.0), (0.0, 6.0, 0.0), 0)
     b = quad((-30.0, -30.0, 5.0), (0.0, 60.0, 0.0), (60.0, 0.0, 0.0), 1)
     cam = look_at_camera((0.0, 0.0, 0.0), (0.0, 0.0, -1.0), hfov_deg=30.0)
@@ -213,11 +220,16 @@ def test_mirror_shows_the_floor_with_its_shadows(device: str) -> None:
     # mirror through (0, 10, 0) facing (0, -1, 1); the sun comes in low from -x, so
     # the mirror itself shades none of the floor in view
     mirror = quad((-3.0, 10.0 - 3.0 * s, -3.0 * s), (6.0, 0.0, 0.0), (0.0, 6.0 * s, 6.0 * s), 2)
-    meshes = [quad((-6.0, 0.0, 6.0), (12.0, 0.0, 0.0), (0.0, 0.0, -12.0), 0), uv_sphere((0.3, 1.0, 0.2), 1.0, 32, 64, 1)]
+    meshes = [
+        quad((-6.0, 0.0, 6.0), (12.0, 0.0, 0.0), (0.0, 0.0, -12.0), 0),
+        uv_sphere((0.3, 1.0, 0.2), 1.0, 32, 64, 1),
+    ]
     light = Light(LightKind.DISTANT, "/sun", (3.0, 3.0, 3.0), direction=(1.0, -0.6, 0.0))
     cam = look_at_camera((0.0, 10.0, 6.0), (0.0, 10.0, 0.0), hfov_deg=30.0)
     virtual = look_at_camera((0.0, 16.0, 0.0), (0.0, 0.0, 0.0), up=(0.0, 0.0, 1.0), hfov_deg=30.0)
-    via_mirror = trace_scene(make_scene(meshes + [mirror], mats, lights=[light]), cam, device, W, H, features=ALL_FEATURES)
+    via_mirror = trace_scene(
+        make_scene(meshes + [mirror], mats, lights=[light]), cam, device, W, H, features=ALL_FEATURES
+    )
     direct = trace_scene(make_scene(meshes, mats, lights=[light]), virtual, device, W, H, features=ALL_FEATURES)
     assert np.all(via_mirror.triangle_id >= via_mirror.triangle_id.max() - 1), "the view must see only the mirror"
     seen = direct.color[:, ::-1]

@@ -59,8 +59,12 @@ def trace_scene(
         color = wp.zeros((height, width), dtype=wp.vec3, device=device)
         vis = wp.full((height, width, lights), value=float("nan"), dtype=wp.float32, device=device)
         timer = StageTimer()
-        counts = tracer.trace(ds, cam, gb, wp.array(listed, dtype=wp.int32, device=device), len(listed), color, vis, timer)
-    return Traced(color.numpy(), vis.numpy(), gb.triangle_id.numpy(), gb.position.numpy(), counts, timer.stages_ms, tracer)
+        counts = tracer.trace(
+            ds, cam, gb, wp.array(listed, dtype=wp.int32, device=device), len(listed), color, vis, timer
+        )
+    return Traced(
+        color.numpy(), vis.numpy(), gb.triangle_id.numpy(), gb.position.numpy(), counts, timer.stages_ms, tracer
+    )
 
 
 def camera_rays(camera: Camera, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
@@ -77,7 +81,9 @@ def camera_rays(camera: Camera, width: int, height: int) -> tuple[np.ndarray, np
     return m[:3, 3].copy(), d / np.linalg.norm(d, axis=-1, keepdims=True)
 
 
-def box(center: tuple[float, float, float], half: tuple[float, float, float], rotation_y_deg: float = 0.0, material: int = 0) -> MeshInput:
+def box(
+    center: tuple[float, float, float], half: tuple[float, float, float], rotation_y_deg: float = 0.0, material: int = 0
+) -> MeshInput:
     """A closed box (12 outward-facing triangles, flat normals), rotated about +Y."""
     c = np.asarray(center, dtype=np.float64)
     hx, hy, hz = half
@@ -92,7 +98,9 @@ def box(center: tuple[float, float, float], half: tuple[float, float, float], ro
         idx += [(q[0], q[1], q[2]), (q[0], q[2], q[3])]
     mesh = MeshInput(pts.astype(np.float32), np.asarray(idx, np.int32), material)
     centroid = pts[np.asarray(idx)].mean(axis=1)
-    normals = np.cross(pts[np.asarray(idx)[:, 1]] - pts[np.asarray(idx)[:, 0]], pts[np.asarray(idx)[:, 2]] - pts[np.asarray(idx)[:, 0]])
+    normals = np.cross(
+        pts[np.asarray(idx)[:, 1]] - pts[np.asarray(idx)[:, 0]], pts[np.asarray(idx)[:, 2]] - pts[np.asarray(idx)[:, 0]]
+    )
     assert np.all(np.einsum("ij,ij->i", normals, centroid - c) > 0), "box faces must face outward"
     return mesh
 

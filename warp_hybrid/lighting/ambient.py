@@ -302,7 +302,9 @@ def ambient_diffuse(scene: SceneGPU, amb: AmbientGPU, n: wp.vec3, v: wp.vec3, kd
 
 
 @wp.func(inline=True)
-def ambient_specular(scene: SceneGPU, amb: AmbientGPU, n: wp.vec3, v: wp.vec3, f0: wp.vec3, roughness: float) -> wp.vec3:
+def ambient_specular(
+    scene: SceneGPU, amb: AmbientGPU, n: wp.vec3, v: wp.vec3, f0: wp.vec3, roughness: float
+) -> wp.vec3:
     """Glossy reflection of the dome: prefiltered radiance along the mirror direction
     times the split-sum specular reflectance."""
     if amb.enabled == 0:

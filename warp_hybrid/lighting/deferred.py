@@ -117,8 +117,21 @@ def _make_shade_kernel(shadowed: bool) -> wp.Kernel:
         y = row0 + wp.tid() * row_step
         for x in range(color_out.shape[1]):
             color_out[y, x] = shade_pixel(
-                scene, amb, cam, position, normal, albedo, specular, emission, optics, material_id, triangle_id,
-                transmittance, x, y, wp.static(shadowed),
+                scene,
+                amb,
+                cam,
+                position,
+                normal,
+                albedo,
+                specular,
+                emission,
+                optics,
+                material_id,
+                triangle_id,
+                transmittance,
+                x,
+                y,
+                wp.static(shadowed),
             )
 
     return shade_pixels
@@ -168,7 +181,9 @@ class DeferredLighting:
         else:
             expected = (h, w, lights)
             if lights > 0 and tuple(light_transmittance.shape) != expected:
-                raise ValueError(f"light_transmittance has shape {tuple(light_transmittance.shape)}, expected {expected}")
+                raise ValueError(
+                    f"light_transmittance has shape {tuple(light_transmittance.shape)}, expected {expected}"
+                )
             kernel = shade_shadowed
             transmittance = light_transmittance
         ambient = EnvironmentLighting.for_scene(scene)

@@ -62,7 +62,9 @@ def direct_light(
 
 
 @wp.func(inline=True)
-def diffuse_albedo(scene: SceneGPU, n: wp.vec3, v: wp.vec3, albedo: wp.vec3, opacity: float, ior: float, flags: int) -> wp.vec3:
+def diffuse_albedo(
+    scene: SceneGPU, n: wp.vec3, v: wp.vec3, albedo: wp.vec3, opacity: float, ior: float, flags: int
+) -> wp.vec3:
     """The diffuse colour that lights and the dome see (``albedo`` for opaque materials;
     see the module docstring for transmissive ones)."""
     if (flags & FLAG_TRANSMISSIVE) == 0:

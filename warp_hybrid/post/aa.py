@@ -114,8 +114,18 @@ def _search_step(i: int) -> float:
 
 
 @wp.func
-def fxaa_edge(img: wp.array3d(dtype=wp.uint8), luma: wp.array2d(dtype=float), x: int, y: int, lc: float, lu: float,
-              ld: float, ll: float, lr: float, rng: float) -> wp.vec3:
+def fxaa_edge(
+    img: wp.array3d(dtype=wp.uint8),
+    luma: wp.array2d(dtype=float),
+    x: int,
+    y: int,
+    lc: float,
+    lu: float,
+    ld: float,
+    ll: float,
+    lr: float,
+    rng: float,
+) -> wp.vec3:
     """Steps 2-4 for a pixel that passed the contrast test: the blended colour in [0, 1]."""
     lul = _luma(luma, x - 1, y - 1)
     lur = _luma(luma, x + 1, y - 1)

@@ -39,7 +39,9 @@ def check_size(camera: CameraGPU, gbuffer: GBuffer) -> None:
         )
 
 
-def evaluate_surfaces(launcher: Launcher, scene: DeviceScene, camera: CameraGPU, gbuffer: GBuffer, timer: StageTimer) -> None:
+def evaluate_surfaces(
+    launcher: Launcher, scene: DeviceScene, camera: CameraGPU, gbuffer: GBuffer, timer: StageTimer
+) -> None:
     """The attribute pass both primary paths share (stage "surface"): from each
     pixel's visibility record (triangle, depth, barycentrics) evaluate the material
     and write every other G-buffer attribute."""

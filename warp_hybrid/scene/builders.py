@@ -87,7 +87,14 @@ def make_scene(
     )
 
 
-def uv_sphere(center: tuple[float, float, float], radius: float, rings: int = 64, segments: int = 128, material: int = 0, name: str = "/sphere") -> MeshInput:
+def uv_sphere(
+    center: tuple[float, float, float],
+    radius: float,
+    rings: int = 64,
+    segments: int = 128,
+    material: int = 0,
+    name: str = "/sphere",
+) -> MeshInput:
     """A UV sphere with smooth normals and (u, v) = (longitude, latitude) in [0, 1]."""
     theta = np.linspace(0.0, np.pi, rings + 1)
     phi = np.linspace(0.0, 2.0 * np.pi, segments + 1)
@@ -104,10 +111,18 @@ def uv_sphere(center: tuple[float, float, float], radius: float, rings: int = 64
                 idx.append((a, c, b))
             if r != rings - 1:
                 idx.append((b, c, d))
-    return MeshInput(pts.astype(np.float32), np.asarray(idx, np.int32), material, n.astype(np.float32), uv.astype(np.float32), name)
+    return MeshInput(
+        pts.astype(np.float32), np.asarray(idx, np.int32), material, n.astype(np.float32), uv.astype(np.float32), name
+    )
 
 
-def quad(corner: tuple[float, float, float], edge_u: tuple[float, float, float], edge_v: tuple[float, float, float], material: int = 0, name: str = "/quad") -> MeshInput:
+def quad(
+    corner: tuple[float, float, float],
+    edge_u: tuple[float, float, float],
+    edge_v: tuple[float, float, float],
+    material: int = 0,
+    name: str = "/quad",
+) -> MeshInput:
     """A parallelogram ``corner + s*edge_u + t*edge_v`` (s, t in [0, 1]) as two
     triangles, facing ``edge_u x edge_v``, with uv = (s, t)."""
     c, u, v = (np.asarray(a, dtype=np.float64) for a in (corner, edge_u, edge_v))

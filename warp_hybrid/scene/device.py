@@ -253,7 +253,9 @@ class DeviceScene:
         self.features = analyse_features(scene)
         d = self.device
         self.points = wp.array(np.ascontiguousarray(scene.points, dtype=np.float32), dtype=wp.vec3, device=d)
-        self.indices = wp.array(np.ascontiguousarray(scene.indices.reshape(-1), dtype=np.int32), dtype=wp.int32, device=d)
+        self.indices = wp.array(
+            np.ascontiguousarray(scene.indices.reshape(-1), dtype=np.int32), dtype=wp.int32, device=d
+        )
         self.corner_normals = wp.array(
             np.ascontiguousarray(scene.corner_normals.reshape(-1, 3), dtype=np.float32), dtype=wp.vec3, device=d
         )

@@ -49,9 +49,12 @@ def format_info(info: dict) -> str:
         f"  triangles   {info['triangles']:,} ({info['points']:,} points)",
         f"  meshes      {info['meshes']} ({info['animated_meshes']} animated)",
         f"  materials   {info['materials']}, textures {info['textures']}",
-        f"  lights      {len(info['lights'])}" + "".join(f"\n    {li['kind']:8s} {li['name']}" for li in info["lights"]),
+        f"  lights      {len(info['lights'])}"
+        + "".join(f"\n    {li['kind']:8s} {li['name']}" for li in info["lights"]),
         f"  cameras     {len(info['cameras'])}" + "".join(f"\n    {c}" for c in info["cameras"]),
-        f"  time range  {tr[0]:g} .. {tr[1]:g} at {info['time_codes_per_second']:g} codes/s" if tr else "  time range  none (static)",
+        f"  time range  {tr[0]:g} .. {tr[1]:g} at {info['time_codes_per_second']:g} codes/s"
+        if tr
+        else "  time range  none (static)",
         f"  units       {info['meters_per_unit']:g} m per unit, up axis {info['up_axis']}",
         "  bounds      (" + ", ".join(f"{v:.4g}" for v in lo) + ") .. (" + ", ".join(f"{v:.4g}" for v in hi) + ")",
         f"  effects     {', '.join(info['effects']) or 'none'}",

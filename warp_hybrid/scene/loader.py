@@ -33,7 +33,9 @@ def open_scene_source(path: str | os.PathLike) -> UsdSceneSource:
         try:
             from .convert import mesh_file_to_stage
         except ImportError as exc:
-            raise SceneError(p, f"mesh files need warp_hybrid.scene.convert.mesh_file_to_stage, which is unavailable ({exc})") from exc
+            raise SceneError(
+                p, f"mesh files need warp_hybrid.scene.convert.mesh_file_to_stage, which is unavailable ({exc})"
+            ) from exc
         return UsdSceneSource(p, stage=mesh_file_to_stage(p))
     supported = ", ".join(USD_SUFFIXES + MESH_SUFFIXES)
     raise SceneError(p, f"unsupported file type {suffix or '(no extension)'!r}; supported: {supported}")

@@ -159,7 +159,13 @@ class ImageLibrary:
         if resolved_path:
             if self._pool is None:
                 self._pool = ThreadPoolExecutor(max_workers=self._workers, thread_name_prefix="texture")
-            job = _Job(index, resolved_path, broadcast, owner, self._pool.submit(load_image, resolved_path, color_space, broadcast))
+            job = _Job(
+                index,
+                resolved_path,
+                broadcast,
+                owner,
+                self._pool.submit(load_image, resolved_path, color_space, broadcast),
+            )
         else:
             job = _Job(index, "", broadcast, owner, None, f"texture file {authored_path!r} not found")
         self._jobs.append(job)

@@ -25,6 +25,7 @@ from .model import Environment, Light, LightKind, Wrap
 from .textures import ImageLibrary
 from .validate import Diagnostics
 
+
 def _get(prim: Usd.Prim, name: str, time: Usd.TimeCode, default: object) -> object:
     attr = prim.GetAttribute(name)
     value = attr.Get(time) if attr else None
@@ -88,14 +89,26 @@ def read_light(prim: Usd.Prim, time: Usd.TimeCode, matrix: np.ndarray, diag: Dia
         half_w = 0.5 * float(_get(prim, "inputs:width", time, 1.0))
         half_h = 0.5 * float(_get(prim, "inputs:height", time, 1.0))
         cone, softness = _shaping(prim, time, diag)
-        return Light(LightKind.RECT, axis_u=_vec(x * half_w), axis_v=_vec(y * half_h),
-                     cone_angle_deg=cone, cone_softness=softness, **common)
+        return Light(
+            LightKind.RECT,
+            axis_u=_vec(x * half_w),
+            axis_v=_vec(y * half_h),
+            cone_angle_deg=cone,
+            cone_softness=softness,
+            **common,
+        )
     if prim.IsA(UsdLux.DiskLight):
         r = float(_get(prim, "inputs:radius", time, 0.5))
         cone, softness = _shaping(prim, time, diag)
-        return Light(LightKind.DISK, axis_u=_vec(x * r), axis_v=_vec(y * r),
-                     radius=r * 0.5 * float(np.linalg.norm(x) + np.linalg.norm(y)),
-                     cone_angle_deg=cone, cone_softness=softness, **common)
+        return Light(
+            LightKind.DISK,
+            axis_u=_vec(x * r),
+            axis_v=_vec(y * r),
+            radius=r * 0.5 * float(np.linalg.norm(x) + np.linalg.norm(y)),
+            cone_angle_deg=cone,
+            cone_softness=softness,
+            **common,
+        )
     diag.warn(f"light type {type_name or 'untyped'} is not supported; skipped", name)
     return None
 
@@ -168,7 +181,9 @@ def read_lights(
             if environment is None:
                 environment = read_environment(prim, t, matrix, images, diag)
             else:
-                diag.warn(f"only the first DomeLight ({environment.name}) is used; this one is ignored", str(prim.GetPath()))
+                diag.warn(
+                    f"only the first DomeLight ({environment.name}) is used; this one is ignored", str(prim.GetPath())
+                )
             continue
         light = read_light(prim, t, matrix, diag)
         if light is not None:

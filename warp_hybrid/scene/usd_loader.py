@@ -45,8 +45,16 @@ from .textures import ImageLibrary
 from .validate import Diagnostics, validate_scene
 
 _SKIPPED_PURPOSES = (UsdGeom.Tokens.guide, UsdGeom.Tokens.proxy)
-_INSTANCER_ATTRS = ("positions", "orientations", "orientationsf", "scales", "protoIndices", "velocities",
-                    "angularVelocities", "invisibleIds")
+_INSTANCER_ATTRS = (
+    "positions",
+    "orientations",
+    "orientationsf",
+    "scales",
+    "protoIndices",
+    "velocities",
+    "angularVelocities",
+    "invisibleIds",
+)
 
 
 @dataclass
@@ -84,7 +92,10 @@ def _source_key(prim: Usd.Prim) -> str:
 
 
 def _has_texture(m: Material) -> bool:
-    return any(t >= 0 for t in (m.diffuse_texture, m.emissive_texture, m.roughness_texture, m.metallic_texture, m.opacity_texture))
+    return any(
+        t >= 0
+        for t in (m.diffuse_texture, m.emissive_texture, m.roughness_texture, m.metallic_texture, m.opacity_texture)
+    )
 
 
 def _matrix(m) -> np.ndarray:
@@ -140,7 +151,9 @@ class UsdSceneSource:
             self.images.finish()
         if not scene.cameras:
             if self._framing is None:  # framed once, at the first time evaluated, then kept still
-                self.diagnostics.warn(f"the stage has no UsdGeom.Camera; using {FRAMING_CAMERA_NAME} that frames the scene bounds")
+                self.diagnostics.warn(
+                    f"the stage has no UsdGeom.Camera; using {FRAMING_CAMERA_NAME} that frames the scene bounds"
+                )
                 self._framing = framing_camera(*scene.bounds, self.info.up_axis)
             scene.cameras = [self._framing]
         scene.images = list(self.images.images)
@@ -220,31 +233,41 @@ class UsdSceneSource:
         if "SkelBindingAPI" in applied:
             diag.warn("skinning (SkelBindingAPI) is not applied; rendered in its rest pose", name)
 
-    def _instancer_items(self, prim: Usd.Prim, tc: Usd.TimeCode, xcache: UsdGeom.XformCache, xanim: bool) -> list[_Item]:
+    def _instancer_items(
+        self, prim: Usd.Prim, tc: Usd.TimeCode, xcache: UsdGeom.XformCache, xanim: bool
+    ) -> list[_Item]:
         diag = self.diagnostics
         name = str(prim.GetPath())
         pi = UsdGeom.PointInstancer(prim)
         xforms = np.asarray(
-            pi.ComputeInstanceTransformsAtTime(tc, tc, UsdGeom.PointInstancer.IncludeProtoXform,
-                                               UsdGeom.PointInstancer.IgnoreMask),
+            pi.ComputeInstanceTransformsAtTime(
+                tc, tc, UsdGeom.PointInstancer.IncludeProtoXform, UsdGeom.PointInstancer.IgnoreMask
+            ),
             dtype=np.float64,
         ).reshape(-1, 4, 4)
         proto_idx = np.asarray(pi.GetProtoIndicesAttr().Get(tc) or [], dtype=np.int64)
         if len(xforms) != len(proto_idx):
             if len(proto_idx):
-                diag.warn("instance attributes disagree in length (positions/orientations/scales vs protoIndices); skipped", name)
+                diag.warn(
+                    "instance attributes disagree in length (positions/orientations/scales vs protoIndices); skipped",
+                    name,
+                )
             return []
         mask = pi.ComputeMaskAtTime(tc)
         active = np.asarray(mask, dtype=bool) if len(mask) else np.ones(len(proto_idx), dtype=bool)
         targets = pi.GetPrototypesRel().GetTargets()
         bad = (proto_idx < 0) | (proto_idx >= len(targets))
         if bad.any():
-            diag.warn(f"{int(bad.sum())} protoIndices reach outside the {len(targets)} prototypes; those instances are skipped", name)
+            diag.warn(
+                f"{int(bad.sum())} protoIndices reach outside the {len(targets)} prototypes; those instances are skipped",
+                name,
+            )
             active &= ~bad
         world = _matrix(xcache.GetLocalToWorldTransform(prim))
-        animated = xanim or (self._may_animate and any(
-            prim.GetAttribute(a).ValueMightBeTimeVarying() for a in _INSTANCER_ATTRS if prim.GetAttribute(a)
-        ))
+        animated = xanim or (
+            self._may_animate
+            and any(prim.GetAttribute(a).ValueMightBeTimeVarying() for a in _INSTANCER_ATTRS if prim.GetAttribute(a))
+        )
         items = []
         for j, target in enumerate(targets):
             sel = np.flatnonzero(active & (proto_idx == j))
@@ -254,14 +277,16 @@ class UsdSceneSource:
             for mesh, rel, rel_animated in self._prototype_meshes(proto, tc, xcache):
                 matrices = rel[None] @ xforms[sel] @ world[None]
                 mesh_name = str(mesh.GetPath())
-                items.append(_Item(
-                    key=f"{name}[{j}]{mesh_name}",
-                    prim=mesh,
-                    source=_source_key(mesh),
-                    matrices=matrices,
-                    animated=animated or rel_animated,
-                    names=[f"{mesh_name}@{name}[{i}]" for i in sel],
-                ))
+                items.append(
+                    _Item(
+                        key=f"{name}[{j}]{mesh_name}",
+                        prim=mesh,
+                        source=_source_key(mesh),
+                        matrices=matrices,
+                        animated=animated or rel_animated,
+                        names=[f"{mesh_name}@{name}[{i}]" for i in sel],
+                    )
+                )
         return items
 
     def _prototype_meshes(self, proto: Usd.Prim, tc: Usd.TimeCode, xcache: UsdGeom.XformCache):
@@ -325,7 +350,9 @@ class UsdSceneSource:
             values = np.asarray(pv.ComputeFlattened(Usd.TimeCode(lib.time)) or [], dtype=np.float64).reshape(-1, 3)
             if len(values):
                 if len(values) > 1:
-                    self.diagnostics.warn("displayColor varies over the mesh; its mean is used as the albedo", str(prim.GetPath()))
+                    self.diagnostics.warn(
+                        "displayColor varies over the mesh; its mean is used as the albedo", str(prim.GetPath())
+                    )
                 colour = values.mean(axis=0)
                 return lib.display_color(str(prim.GetPath()), tuple(float(c) for c in colour), double_sided)
         return lib.default(double_sided)

@@ -33,11 +33,22 @@ from .model import Material, Wrap
 from .textures import ImageLibrary
 from .validate import Diagnostics
 
-_WRAPS = {"repeat": Wrap.REPEAT, "clamp": Wrap.CLAMP, "mirror": Wrap.MIRROR, "black": Wrap.BLACK, "useMetadata": Wrap.REPEAT}
+_WRAPS = {
+    "repeat": Wrap.REPEAT,
+    "clamp": Wrap.CLAMP,
+    "mirror": Wrap.MIRROR,
+    "black": Wrap.BLACK,
+    "useMetadata": Wrap.REPEAT,
+}
 _CHANNELS = {"rgb": -1, "rgba": -1, "r": 0, "g": 1, "b": 2, "a": 3}
 # Inputs the renderer ignores, with their neutral values: warn when set otherwise.
-_UNSUPPORTED_INPUTS = {"normal": (0.0, 0.0, 1.0), "displacement": 0.0, "occlusion": 1.0, "clearcoat": 0.0,
-                       "clearcoatRoughness": 0.01}
+_UNSUPPORTED_INPUTS = {
+    "normal": (0.0, 0.0, 1.0),
+    "displacement": 0.0,
+    "occlusion": 1.0,
+    "clearcoat": 0.0,
+    "clearcoatRoughness": 0.01,
+}
 DEFAULT_UV_SET = "st"
 
 
@@ -122,7 +133,9 @@ class MaterialLibrary:
             return Material(path), DEFAULT_UV_SET
         shader_id = shader.GetShaderId()
         if shader_id != "UsdPreviewSurface":
-            self.diag.warn(f"surface shader {shader.GetPath()} is {shader_id!r}, not UsdPreviewSurface; using default grey", path)
+            self.diag.warn(
+                f"surface shader {shader.GetPath()} is {shader_id!r}, not UsdPreviewSurface; using default grey", path
+            )
             return Material(path), DEFAULT_UV_SET
         prim = material.GetPrim()
         m = Material(path)
@@ -206,10 +219,16 @@ class MaterialLibrary:
         output = UsdShade.Utils.GetBaseNameAndType(attr.GetName())[0]
         node_id = node.GetShaderId() if node else None
         if node_id != "UsdUVTexture":
-            self.diag.warn(f"input {name} is fed by {attr.GetPath()} ({node_id!r}); only UsdUVTexture is supported, using the default", path)
+            self.diag.warn(
+                f"input {name} is fed by {attr.GetPath()} ({node_id!r}); only UsdUVTexture is supported, using the default",
+                path,
+            )
             return None, None
         if not texturable:
-            self.diag.warn(f"input {name} is textured ({node.GetPath()}); textures on {name} are not supported, using the default", path)
+            self.diag.warn(
+                f"input {name} is textured ({node.GetPath()}); textures on {name} are not supported, using the default",
+                path,
+            )
             return None, None
         return None, self._texture(node, str(output), path, name, is_colour)
 
@@ -269,7 +288,9 @@ class MaterialLibrary:
             inp = node.GetInput(input_name)
             attrs = inp.GetValueProducingAttributes(False) if inp else []
             if not attrs or not _is_output(attrs[0]):
-                self.diag.warn(f"texture {texture.GetPath()} has no primvar reader on st; reading {DEFAULT_UV_SET!r}", path)
+                self.diag.warn(
+                    f"texture {texture.GetPath()} has no primvar reader on st; reading {DEFAULT_UV_SET!r}", path
+                )
                 return DEFAULT_UV_SET
             node = UsdShade.Shader(attrs[0].GetPrim())
             node_id = node.GetShaderId()

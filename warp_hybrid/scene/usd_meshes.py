@@ -26,8 +26,14 @@ from pxr import Sdf, Usd, UsdGeom
 
 from .validate import Diagnostics, check_points, check_primvar, check_topology
 
-_UV_TYPES = {Sdf.ValueTypeNames.TexCoord2fArray, Sdf.ValueTypeNames.Float2Array, Sdf.ValueTypeNames.TexCoord2dArray,
-             Sdf.ValueTypeNames.Double2Array, Sdf.ValueTypeNames.TexCoord2hArray, Sdf.ValueTypeNames.Half2Array}
+_UV_TYPES = {
+    Sdf.ValueTypeNames.TexCoord2fArray,
+    Sdf.ValueTypeNames.Float2Array,
+    Sdf.ValueTypeNames.TexCoord2dArray,
+    Sdf.ValueTypeNames.Double2Array,
+    Sdf.ValueTypeNames.TexCoord2hArray,
+    Sdf.ValueTypeNames.Half2Array,
+}
 
 
 @dataclass
@@ -240,8 +246,14 @@ def _to_corners(values: np.ndarray, interpolation: str, topo: _Topology) -> np.n
 
 
 def _read_primvar(
-    primvar: UsdGeom.Primvar, interpolation: str, time: Usd.TimeCode, topo: _Topology, width: int,
-    diag: Diagnostics, prim: str, fallback: str,
+    primvar: UsdGeom.Primvar,
+    interpolation: str,
+    time: Usd.TimeCode,
+    topo: _Topology,
+    width: int,
+    diag: Diagnostics,
+    prim: str,
+    fallback: str,
 ) -> np.ndarray | None:
     """A primvar's values at triangle corners (T, 3, width), or None (warned) when its
     values, indices or element count do not fit the mesh."""
@@ -259,7 +271,9 @@ def _read_primvar(
             diag.warn(f"{name} indices reach outside its {len(values)} values; using {fallback}", prim)
             return None
         values = np.take(values, idx, axis=0)
-    if not check_primvar(name, interpolation, len(values), topo.faces, topo.points, topo.face_vertices, diag, prim, fallback):
+    if not check_primvar(
+        name, interpolation, len(values), topo.faces, topo.points, topo.face_vertices, diag, prim, fallback
+    ):
         return None
     if not np.isfinite(values).all():
         diag.warn(f"{name} holds NaN/Inf values; using {fallback}", prim)
@@ -331,8 +345,15 @@ def read_local_mesh(prim: Usd.Prim, time: float, path: str, diag: Diagnostics, m
     normals = _fix_normals(normals, points, tri_points)
     varying = may_animate and any(
         prim.GetAttribute(a).ValueMightBeTimeVarying()
-        for a in ("points", "faceVertexCounts", "faceVertexIndices", "holeIndices", "normals", "primvars:normals",
-                  "primvars:normals:indices")
+        for a in (
+            "points",
+            "faceVertexCounts",
+            "faceVertexIndices",
+            "holeIndices",
+            "normals",
+            "primvars:normals",
+            "primvars:normals:indices",
+        )
         if a in authored
     )
     double_sided = "doubleSided" in authored and bool(prim.GetAttribute("doubleSided").Get(t))
@@ -365,7 +386,9 @@ def _uv_primvar(prim: Usd.Prim, varname: str, authored: frozenset[str]) -> UsdGe
     return None
 
 
-def corner_uvs(local: LocalMesh, prim: Usd.Prim, varname: str, time: float, diag: Diagnostics, needed: bool) -> np.ndarray:
+def corner_uvs(
+    local: LocalMesh, prim: Usd.Prim, varname: str, time: float, diag: Diagnostics, needed: bool
+) -> np.ndarray:
     """Texture coordinates (T, 3, 2) at the triangle corners of ``local``, read from
     the primvar ``varname``, else ``st``, else the first 2-component texcoord primvar;
     zeros when there is none (a warning when ``needed``: a textured material)."""
@@ -376,9 +399,14 @@ def corner_uvs(local: LocalMesh, prim: Usd.Prim, varname: str, time: float, diag
     uvs = None
     if pv is not None:
         if pv.GetPrimvarName() != varname and needed:
-            diag.warn(f"primvar {varname!r} (read by its material's textures) is missing; reading {pv.GetPrimvarName()!r}", name)
+            diag.warn(
+                f"primvar {varname!r} (read by its material's textures) is missing; reading {pv.GetPrimvarName()!r}",
+                name,
+            )
         points = len(local.points)
-        topo = _Topology(local.face_count, points, local.face_vertex_count, local.tri_corner, local.tri_points, local.tri_face)
+        topo = _Topology(
+            local.face_count, points, local.face_vertex_count, local.tri_corner, local.tri_points, local.tri_face
+        )
         uvs = _read_primvar(pv, pv.GetInterpolation(), Usd.TimeCode(time), topo, 2, diag, name, "uv (0, 0)")
     elif needed:
         diag.warn(f"mesh has no uv primvar ({varname!r}) but its material is textured; uv = (0, 0)", name)

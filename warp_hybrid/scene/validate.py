@@ -68,7 +68,9 @@ def check_topology(counts: np.ndarray, indices: np.ndarray, point_count: int, pa
         if lo < 0 or hi >= point_count:
             bad = lo if lo < 0 else hi
             raise SceneError(
-                path, f"faceVertexIndices holds {bad}, outside the {point_count} points (valid 0..{point_count - 1})", prim
+                path,
+                f"faceVertexIndices holds {bad}, outside the {point_count} points (valid 0..{point_count - 1})",
+                prim,
             )
 
 

@@ -657,7 +657,9 @@ def shade_kernel(variant: TraceVariant) -> wp.Kernel:
                         if segment == 0:
                             tr = transmittance[item, i]
                         elif max3(wp.cw_mul(weight, c)) >= MIN_THROUGHPUT * INV_PI * max3(ls.e_normal):
-                            r = light_transmittance(scene, params, occ, i, ls, h.position, n, ng, transmissive, pixel, segment)
+                            r = light_transmittance(
+                                scene, params, occ, i, ls, h.position, n, ng, transmissive, pixel, segment
+                            )
                             tr = r.transmittance
                             shadow_rays += r.rays
                         direct += wp.cw_mul(c, tr)
@@ -666,7 +668,19 @@ def shade_kernel(variant: TraceVariant) -> wp.Kernel:
                     c = h.emission + direct
                     if wp.static(environment):
                         c = shade_surface(
-                            scene, amb, n, v, h.albedo, kd, h.specular, h.roughness, h.emission, h.opacity, h.ior, h.flags, direct
+                            scene,
+                            amb,
+                            n,
+                            v,
+                            h.albedo,
+                            kd,
+                            h.specular,
+                            h.roughness,
+                            h.emission,
+                            h.opacity,
+                            h.ior,
+                            h.flags,
+                            direct,
                         )
                     radiance += wp.cw_mul(weight, c)
                 else:

@@ -127,7 +127,11 @@ class Tracer:
         """Per-item transmittance (count, L) and ray counts (count, 4), reused across calls."""
         shape_t = (max(count, 1), max(lights, 1))
         dev = self.launcher.device
-        if self._transmittance is None or self._transmittance.shape[0] < shape_t[0] or self._transmittance.shape[1] != shape_t[1]:
+        if (
+            self._transmittance is None
+            or self._transmittance.shape[0] < shape_t[0]
+            or self._transmittance.shape[1] != shape_t[1]
+        ):
             self._transmittance = wp.empty(shape_t, dtype=wp.vec3, device=dev)
         if self._counts is None or self._counts.shape[0] < shape_t[0]:
             self._counts = wp.empty((shape_t[0], kernels.COUNT_COLUMNS), dtype=wp.int32, device=dev)
@@ -143,13 +147,23 @@ class Tracer:
 
     def _check_features(self, scene: DeviceScene) -> None:
         """The compiled variant must cover every effect the scene needs."""
-        missing = [name for name in scene.features.names() if name in TRACED_FEATURES and not getattr(self.features, name)]
+        missing = [
+            name for name in scene.features.names() if name in TRACED_FEATURES and not getattr(self.features, name)
+        ]
         if missing:
-            raise ValueError(f"{scene.scene.path}: the tracer was built without {', '.join(missing)}, which the scene needs")
+            raise ValueError(
+                f"{scene.scene.path}: the tracer was built without {', '.join(missing)}, which the scene needs"
+            )
 
     @staticmethod
     def _check(
-        gbuffer: GBuffer, camera: CameraGPU, pixels: wp.array, count: int, color_out: wp.array, visibility_out: wp.array, lights: int
+        gbuffer: GBuffer,
+        camera: CameraGPU,
+        pixels: wp.array,
+        count: int,
+        color_out: wp.array,
+        visibility_out: wp.array,
+        lights: int,
     ) -> None:
         h, w = gbuffer.height, gbuffer.width
         if (camera.width, camera.height) != (w, h):

@@ -119,8 +119,7 @@ def good_doc() -> dict:
         (lambda d: d.update(version=7), "unsupported calibration version 7"),
         (lambda d: d.update(schema="something"), "not a gaze calibration"),
         (lambda d: d.update(coefficients=[[0] * 6, [0] * 6]), "'coefficients' must be an object"),
-        (lambda d: d.update(face_reference={"template_png": "!!", "face_box": [0, 0, 1, 1], "eyes": []}),
-         "not base64"),
+        (lambda d: d.update(face_reference={"template_png": "!!", "face_box": [0, 0, 1, 1], "eyes": []}), "not base64"),
     ],
 )
 def test_bad_calibration_file_names_the_file(tmp_path: Path, change, problem: str) -> None:

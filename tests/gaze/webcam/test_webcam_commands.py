@@ -20,16 +20,22 @@ if TYPE_CHECKING:
 
 def test_calibrate_then_record(videos: Videos, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     calib = tmp_path / "calib.json"
-    args = argparse.Namespace(source=f"webcam:{videos.calibration.path}", targets=str(videos.targets_csv),
-                              out=str(calib), calibration=None, screen=None)
+    args = argparse.Namespace(
+        source=f"webcam:{videos.calibration.path}",
+        targets=str(videos.targets_csv),
+        out=str(calib),
+        calibration=None,
+        screen=None,
+    )
     assert run_calibrate(args) == 0
     assert "from 9 of 9 targets, 81 settled frames of 135" in capsys.readouterr().out
     calibration = load_calibration(calib)
     assert calibration.reference is not None and calibration.targets == 9
 
     trace = tmp_path / "trace.csv"
-    args = argparse.Namespace(source=videos.test.path, targets=None, out=str(trace), calibration=str(calib),
-                              screen=(1920, 1080))
+    args = argparse.Namespace(
+        source=videos.test.path, targets=None, out=str(trace), calibration=str(calib), screen=(1920, 1080)
+    )
     assert run_record(args) == 0
     assert "180 samples (180 valid)" in capsys.readouterr().out
     lines = trace.read_text().splitlines()
@@ -41,10 +47,12 @@ def test_calibrate_then_record(videos: Videos, tmp_path: Path, capsys: pytest.Ca
     assert np.median(deg) <= 1.5
 
 
-def test_live_camera_without_targets_says_the_viewer_shows_them(capsys: pytest.CaptureFixture[str],
-                                                                 tmp_path: Path) -> None:
-    args = argparse.Namespace(source="webcam:0", targets=None, out=str(tmp_path / "c.json"), calibration=None,
-                              screen=None)
+def test_live_camera_without_targets_says_the_viewer_shows_them(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    args = argparse.Namespace(
+        source="webcam:0", targets=None, out=str(tmp_path / "c.json"), calibration=None, screen=None
+    )
     assert run_calibrate(args) != 0
     err = capsys.readouterr().err
     assert "webcam:0" in err and "viewer" in err and "--targets" in err

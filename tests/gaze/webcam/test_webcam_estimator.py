@@ -28,8 +28,10 @@ def test_end_to_end_error_is_within_the_bound(videos: Videos, calibration: Calib
     np.testing.assert_array_equal(rec.t, videos.test.t)
     assert rec.valid.all() and (rec.confidence > 0.6).all()
     deg, px = synthetic.gaze_errors(videos.test, rec.x, rec.y, ScreenGeometry(1920, 1080, 53.0, 60.0))
-    print(f"webcam estimator: median {np.median(deg):.3f} deg ({np.median(px):.1f} px), "
-          f"90th percentile {np.percentile(deg, 90):.3f} deg over {deg.size} settled frames")
+    print(
+        f"webcam estimator: median {np.median(deg):.3f} deg ({np.median(px):.1f} px), "
+        f"90th percentile {np.percentile(deg, 90):.3f} deg over {deg.size} settled frames"
+    )
     assert np.median(deg) <= MAX_MEDIAN_DEG
     # Every test target is told apart: the per-target median lands nearer its own target than any other.
     targets = synthetic.evaluation_targets()

@@ -54,7 +54,6 @@ from ..scene.model import LightKind
 KIND_DISTANT = wp.constant(int(LightKind.DISTANT))
 KIND_SPHERE = wp.constant(int(LightKind.SPHERE))
 KIND_RECT = wp.constant(int(LightKind.RECT))
-KIND_DISK = wp.constant(int(LightKind.DISK))
 PI = wp.constant(math.pi)
 INFINITY = wp.constant(math.inf)
 

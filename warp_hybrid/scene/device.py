@@ -197,14 +197,15 @@ def _material_gpu(m) -> MaterialGPU:
     g.opacity = float(m.opacity)
     g.opacity_threshold = float(m.opacity_threshold)
     g.ior = float(m.ior)
-    flags = 0
-    flags |= 1 if m.use_specular_workflow else 0
-    flags |= 2 if m.thin_walled else 0
-    flags |= 4 if m.double_sided else 0
-    flags |= 8 if m.is_transmissive else 0
-    flags |= 16 if m.is_refractive else 0
-    flags |= 32 if m.is_cutout else 0
-    g.flags = flags
+    bits = (
+        (FLAG_SPECULAR_WORKFLOW, m.use_specular_workflow),
+        (FLAG_THIN_WALLED, m.thin_walled),
+        (FLAG_DOUBLE_SIDED, m.double_sided),
+        (FLAG_TRANSMISSIVE, m.is_transmissive),
+        (FLAG_REFRACTIVE, m.is_refractive),
+        (FLAG_CUTOUT, m.is_cutout),
+    )
+    g.flags = sum(int(bit) for bit, on in bits if on)
     g.diffuse_tex = int(m.diffuse_texture)
     g.emissive_tex = int(m.emissive_texture)
     g.roughness_tex = int(m.roughness_texture)

@@ -208,10 +208,17 @@ class Renderer:
         self.gbuffer.clear()
         self.primary.render(self.device_scene, cam, self.gbuffer, timer)
         trace_stats: dict[str, Any] = {}
+        region: FocusRegion | None = None
+        if s.mode == "full":
+            region = self.focus.full_screen()
+        elif s.mode == "hybrid":
+            region = self.focus.build(window or self.default_window(), timer)
         if s.mode != "full":
-            self.lighting.shade(self.device_scene, cam, self.gbuffer, self.raster_color, timer)
-        if self.tracer is not None:
-            trace_stats = self._trace(cam, window or self.default_window(), timer)
+            # hybrid: the window's interior (weight 1) is replaced by the traced layer
+            skip = region.weight if region is not None else None
+            self.lighting.shade(self.device_scene, cam, self.gbuffer, self.raster_color, timer, skip_weight=skip)
+        if region is not None:
+            trace_stats = self._trace(cam, region, window or self.default_window(), timer)
         image = self.post.run(self.color, s.exposure_ev, s.tonemap, s.antialias, timer, self.gbuffer.triangle_id)
         with timer.stage("readback"):
             color = self.color.numpy().astype(np.float32)
@@ -235,12 +242,11 @@ class Renderer:
         }
         return Frame(color=color, image=image, gbuffer=self.gbuffer, visibility=visibility, stats=stats)
 
-    def _trace(self, cam: Any, window: FocusWindow, timer: StageTimer) -> dict[str, Any]:
-        """Trace the focus region (everything in full mode) and compose it over the
-        raster image; returns the frame's tracing statistics."""
+    def _trace(self, cam: Any, region: FocusRegion, window: FocusWindow, timer: StageTimer) -> dict[str, Any]:
+        """Trace ``region`` (every pixel in full mode) and compose it over the raster
+        image; returns the frame's tracing statistics."""
         assert self.tracer is not None
         full = self.settings.mode == "full"
-        region: FocusRegion = self.focus.full_screen() if full else self.focus.build(window, timer)
         self.visibility.fill_(float("nan"))
         counts = self.tracer.trace(
             self.device_scene, cam, self.gbuffer, region.pixels, region.count, self.traced_color, self.visibility, timer

@@ -186,3 +186,24 @@ def test_two_threads_match_one(device):
     ds = _scene(device, [sun], environment=Environment("/dome", (0.2, 0.2, 0.3)))
     gb = _plane_gbuffer(device, specular=(0.04, 0.04, 0.04), roughness=0.25, background_cols=2)
     np.testing.assert_array_equal(_shade(device, ds, gb, threads=1), _shade(device, ds, gb, threads=2))
+
+
+def test_skip_weight_leaves_the_window_interior_untouched(device):
+    sun = Light(LightKind.DISTANT, "/sun", (3.0, 3.0, 3.0), direction=(0.0, -1.0, 0.0))
+    ds, gb = _scene(device, [sun]), _plane_gbuffer(device, albedo=(0.5, 0.5, 0.5))
+    full = _shade(device, ds, gb)
+    weight = np.zeros((H, W), np.float32)
+    weight[: H // 2] = 1.0  # the interior: replaced by the traced layer, so not shaded
+    weight[H // 2, :] = 0.5  # the feather band is still shaded
+    cam = make_camera_gpu(look_at_camera((0.0, 5.0, 8.0), (0.0, 0.0, 0.0)), W, H)
+    out = wp.full((H, W), value=wp.vec3(-1.0, -1.0, -1.0), dtype=wp.vec3, device=device)
+    with Launcher(device) as launcher:
+        lighting = DeferredLighting(launcher)
+        lighting.shade(ds, cam, gb, out, StageTimer(), skip_weight=wp.array(weight, device=device))
+        with pytest.raises(ValueError, match="skip_weight"):
+            lighting.shade(
+                ds, cam, gb, out, StageTimer(), skip_weight=wp.zeros((2, 2), dtype=wp.float32, device=device)
+            )
+    got = out.numpy()
+    np.testing.assert_array_equal(got[: H // 2], -1.0)
+    np.testing.assert_array_equal(got[H // 2 :], full[H // 2 :])

@@ -110,12 +110,17 @@ def _make_shade_kernel(shadowed: bool) -> wp.Kernel:
         material_id: wp.array2d(dtype=wp.int32),
         triangle_id: wp.array2d(dtype=wp.int32),
         transmittance: wp.array3d(dtype=wp.vec3),
+        skip_weight: wp.array2d(dtype=wp.float32),
+        use_skip: int,
         color_out: wp.array2d(dtype=wp.vec3),
         row0: int,
         row_step: int,
     ):
         y = row0 + wp.tid() * row_step
         for x in range(color_out.shape[1]):
+            if use_skip != 0:
+                if skip_weight[y, x] >= 1.0:
+                    continue
             color_out[y, x] = shade_pixel(
                 scene,
                 amb,
@@ -148,6 +153,7 @@ class DeferredLighting:
         """Shade on ``launcher``'s device, splitting rows across its threads."""
         self.launcher = launcher
         self._no_transmittance: wp.array | None = None
+        self._no_skip = wp.zeros((1, 1), dtype=wp.float32, device=launcher.device)
         launcher.ensure_loaded(shade_unshadowed)  # compiles the lighting module up front
 
     def _dummy_transmittance(self) -> wp.array:
@@ -163,11 +169,14 @@ class DeferredLighting:
         color_out: wp.array,
         timer: StageTimer,
         light_transmittance: wp.array | None = None,
+        skip_weight: wp.array | None = None,
     ) -> None:
         """Write linear radiance (H, W) vec3 into ``color_out``.
 
         ``light_transmittance`` (H, W, L) vec3, L = number of lights, multiplies each
-        light per pixel (shadows); None means unshadowed."""
+        light per pixel (shadows); None means unshadowed.  ``skip_weight`` (H, W)
+        float32: pixels whose weight is >= 1 are left untouched (the hybrid mode's
+        window interior, which the traced layer replaces anyway)."""
         h, w = gbuffer.height, gbuffer.width
         if tuple(color_out.shape) != (h, w) or (camera.width, camera.height) != (w, h):
             raise ValueError(
@@ -186,6 +195,8 @@ class DeferredLighting:
                 )
             kernel = shade_shadowed
             transmittance = light_transmittance
+        if skip_weight is not None and tuple(skip_weight.shape) != (h, w):
+            raise ValueError(f"skip_weight has shape {tuple(skip_weight.shape)}, expected {(h, w)}")
         ambient = EnvironmentLighting.for_scene(scene)
         with timer.stage("lighting"):
             self.launcher.launch_items(
@@ -204,6 +215,8 @@ class DeferredLighting:
                     gbuffer.material_id,
                     gbuffer.triangle_id,
                     transmittance,
+                    skip_weight if skip_weight is not None else self._no_skip,
+                    1 if skip_weight is not None else 0,
                     color_out,
                 ],
             )

@@ -9,7 +9,7 @@ indexed ``[row, column]`` with row 0 at the top.  Background pixels have
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 import warp as wp
@@ -69,22 +69,19 @@ class GBuffer:
             barycentric=wp.zeros(shape, dtype=wp.vec2, device=device),
         )
 
+    def arrays(self) -> dict[str, wp.array]:
+        """Every per-pixel array by field name (the one list the kernel-side structs
+        and ``clear`` are built from)."""
+        return {f.name: getattr(self, f.name) for f in fields(self) if f.name not in ("width", "height")}
+
     def clear(self) -> None:
         """Reset to background: depth +inf, ids -1, everything else 0."""
         self.depth.fill_(float("inf"))
         self.material_id.fill_(-1)
         self.triangle_id.fill_(-1)
-        for a in (
-            self.position,
-            self.normal,
-            self.geometric_normal,
-            self.albedo,
-            self.specular,
-            self.emission,
-            self.optics,
-            self.barycentric,
-        ):
-            a.zero_()
+        for name, array in self.arrays().items():
+            if name not in ("depth", "material_id", "triangle_id"):
+                array.zero_()
 
     def hit_mask(self) -> np.ndarray:
         """(H, W) bool: True where a surface was hit."""

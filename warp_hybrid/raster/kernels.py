@@ -706,35 +706,14 @@ def gbuffer_rows(gbuffer) -> GBufferRows:
     """Flat views of a ``GBuffer``'s arrays as the kernel-side struct of the primary
     passes."""
     s = GBufferRows()
-    for name in (
-        "position",
-        "normal",
-        "geometric_normal",
-        "depth",
-        "albedo",
-        "specular",
-        "emission",
-        "optics",
-        "material_id",
-        "triangle_id",
-        "barycentric",
-    ):
-        setattr(s, name, getattr(gbuffer, name).reshape((-1,)))
+    for name, array in gbuffer.arrays().items():
+        setattr(s, name, array.reshape((-1,)))
     return s
 
 
 def gbuffer_arrays(gbuffer) -> GBufferArrays:
     """Pack a ``GBuffer``'s arrays into the kernel-side struct."""
     s = GBufferArrays()
-    s.position = gbuffer.position
-    s.normal = gbuffer.normal
-    s.geometric_normal = gbuffer.geometric_normal
-    s.depth = gbuffer.depth
-    s.albedo = gbuffer.albedo
-    s.specular = gbuffer.specular
-    s.emission = gbuffer.emission
-    s.optics = gbuffer.optics
-    s.material_id = gbuffer.material_id
-    s.triangle_id = gbuffer.triangle_id
-    s.barycentric = gbuffer.barycentric
+    for name, array in gbuffer.arrays().items():
+        setattr(s, name, array)
     return s

@@ -28,12 +28,12 @@ def measure_scene(path: str, width: int, height: int, repeats: int) -> dict:
     import numpy as np
 
     from warp_hybrid.parallel import Launcher
-    from warp_hybrid.raster.gbuffer import GBuffer
-    from warp_hybrid.raster.raycast import RayCaster
+    from warp_hybrid.core.gbuffer import GBuffer
+    from warp_hybrid.primary import RayCaster
     from warp_hybrid.renderer import Renderer, RenderSettings
     from warp_hybrid.runtime import init_warp
-    from warp_hybrid.scene.device import make_camera_gpu
-    from warp_hybrid.scene.loader import open_scene_source
+    from warp_hybrid.core.camera import make_camera_gpu
+    from warp_hybrid.scene.open import open_scene_source
     from warp_hybrid.timing import StageTimer
 
     init_warp()
@@ -51,7 +51,7 @@ def measure_scene(path: str, width: int, height: int, repeats: int) -> dict:
     raster_ids = renderer.gbuffer.triangle_id.numpy().copy()
 
     cam = make_camera_gpu(camera, width, height)
-    ray_gb = GBuffer.allocate(width, height, renderer.device)
+    ray_gb = GBuffer(width, height, renderer.device)
     caster = RayCaster(Launcher(renderer.device, renderer.launcher.threads))
 
     def cast() -> dict[str, float]:
@@ -87,7 +87,7 @@ def cold_start(path: str, width: int, height: int) -> float:
         code = (
             "import time; t=time.perf_counter();"
             "from warp_hybrid.runtime import init_warp; init_warp();"
-            "from warp_hybrid.scene.loader import open_scene_source;"
+            "from warp_hybrid.scene.open import open_scene_source;"
             "from warp_hybrid.renderer import Renderer, RenderSettings;"
             f"s=open_scene_source({path!r}).scene_at(None);"
             f"r=Renderer(s, RenderSettings(width={width}, height={height})); r.render(s.cameras[0]);"

@@ -22,7 +22,7 @@ def measure_scene(path: str, width: int, height: int, repeats: int) -> dict:
     """All modes of one scene in this process; returns a JSON-ready dict."""
     from warp_hybrid.renderer import Renderer, RenderSettings
     from warp_hybrid.runtime import init_warp
-    from warp_hybrid.scene.loader import open_scene_source
+    from warp_hybrid.scene.open import open_scene_source
 
     init_warp()
     scene = open_scene_source(path).scene_at(None)

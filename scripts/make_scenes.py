@@ -23,8 +23,9 @@ if str(ROOT) not in sys.path:  # runnable as a plain script from a checkout
 
 from pxr import Gf, Usd, UsdGeom  # noqa: E402
 
-from warp_hybrid.scene import usd_writer as uw  # noqa: E402
-from warp_hybrid.scene.builders import uv_sphere  # noqa: E402
+from warp_hybrid.output import atomic_write_bytes  # noqa: E402
+from warp_hybrid.scene.authoring import writer as uw  # noqa: E402
+from warp_hybrid.scene.authoring.builders import uv_sphere  # noqa: E402
 
 SKY_SIZE = (256, 128)
 SUN_LON_DEG, SUN_LAT_DEG, SUN_RADIUS_DEG = -40.0, 35.0, 4.0
@@ -209,7 +210,7 @@ def write_textures(out: Path) -> None:
         ok, data = cv2.imencode(ext, np.ascontiguousarray(image[..., ::-1]))
         if not ok:
             raise RuntimeError(f"cannot encode {name}{ext}")
-        uw.write_file_atomic(tex / f"{name}{ext}", data.tobytes())
+        atomic_write_bytes(tex / f"{name}{ext}", data.tobytes())
 
 
 # ----------------------------------------------------------------------------- scenes

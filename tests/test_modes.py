@@ -8,7 +8,7 @@ import pytest
 
 from warp_hybrid.focus import FocusWindow
 from warp_hybrid.renderer import Renderer, RenderSettings
-from warp_hybrid.scene.builders import look_at_camera, make_scene, quad, uv_sphere
+from warp_hybrid.scene.authoring.builders import look_at_camera, make_scene, quad, uv_sphere
 from warp_hybrid.scene.model import Light, LightKind, Material
 
 W, H = 96, 72

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+import os
+import stat
 
 import cv2
 import numpy as np
@@ -51,3 +53,24 @@ def test_aovs_and_json(tmp_path) -> None:
     np.testing.assert_array_equal(np.load(paths[0]), depth)
     write_json(tmp_path / "s.json", {"a": float("inf"), "b": [np.float32(1.5)]})
     assert json.loads((tmp_path / "s.json").read_text()) == {"a": None, "b": [1.5]}
+
+
+def test_new_file_gets_umask_mode_and_folder_is_created(tmp_path) -> None:
+    target = tmp_path / "new_dir" / "x.png"
+    old = os.umask(0o022)
+    try:
+        write_png(target, np.zeros((2, 2, 3), np.uint8))
+    finally:
+        os.umask(old)
+    assert stat.S_IMODE(target.stat().st_mode) == 0o644
+
+
+def test_overwrite_keeps_the_mode_and_errors_name_the_file(tmp_path) -> None:
+    target = tmp_path / "s.json"
+    target.write_text("{}")
+    target.chmod(0o600)
+    write_json(target, {"a": 1})
+    assert stat.S_IMODE(target.stat().st_mode) == 0o600 and json.loads(target.read_text()) == {"a": 1}
+    (tmp_path / "taken.png").mkdir()
+    with pytest.raises(WarpHybridError, match="taken.png: output path is a folder"):
+        write_png(tmp_path / "taken.png", np.zeros((2, 2, 3), np.uint8))

@@ -1,4 +1,4 @@
-"""The launch layer covers every row/item exactly once, whatever the thread count."""
+"""The launch layer covers every pixel/item exactly once, whatever the thread count."""
 
 from __future__ import annotations
 
@@ -10,10 +10,15 @@ from warp_hybrid.parallel import Launcher
 
 
 @wp.kernel
-def _count_rows(out: wp.array2d(dtype=wp.int32), row0: int, row_step: int):
-    r, x = wp.tid()
+def _count_pixels(
+    out: wp.array2d(dtype=wp.int32), item_cols: wp.array2d(dtype=wp.int32), row0: int, row_step: int, cols: int
+):
+    """Count the visits of each pixel; record the ``cols`` of the item that visited it."""
+    r, c = wp.tid()
     y = row0 + r * row_step
-    out[y, x] = out[y, x] + 1 + y * 0
+    for x in range(c * cols, wp.min(c * cols + cols, out.shape[1])):
+        out[y, x] = out[y, x] + 1
+        item_cols[y, x] = cols
 
 
 @wp.kernel
@@ -23,12 +28,24 @@ def _count_items(out: wp.array(dtype=wp.int32), start: int, step: int):
 
 
 @pytest.mark.parametrize("threads", [1, 2, 3])
-@pytest.mark.parametrize("height", [1, 2, 7, 48])
-def test_launch_rows_covers_each_pixel_once(device: str, threads: int, height: int) -> None:
-    out = wp.zeros((height, 5), dtype=wp.int32, device=device)
+@pytest.mark.parametrize(("height", "width"), [(1, 1), (2, 5), (7, 3), (48, 33)])
+def test_launch_pixels_covers_each_pixel_once(device: str, threads: int, height: int, width: int) -> None:
+    out = wp.zeros((height, width), dtype=wp.int32, device=device)
+    item_cols = wp.zeros((height, width), dtype=wp.int32, device=device)
     with Launcher(device, threads) as launcher:
-        launcher.launch_rows(_count_rows, height, 5, [out])
-    np.testing.assert_array_equal(out.numpy(), np.ones((height, 5), np.int32))
+        launcher.launch_pixels(_count_pixels, height, width, [out, item_cols])
+    np.testing.assert_array_equal(out.numpy(), np.ones((height, width), np.int32))
+    # the device's shape: a whole row per launch item on the CPU, one pixel on CUDA
+    expected_cols = 1 if wp.get_device(device).is_cuda else width
+    np.testing.assert_array_equal(item_cols.numpy(), np.full((height, width), expected_cols, np.int32))
+
+
+def test_launch_pixels_skips_empty_images(device: str) -> None:
+    out = wp.zeros((1, 1), dtype=wp.int32, device=device)
+    with Launcher(device, 2) as launcher:
+        launcher.launch_pixels(_count_pixels, 0, 1, [out, out])
+        launcher.launch_pixels(_count_pixels, 1, 0, [out, out])
+    assert out.numpy()[0, 0] == 0
 
 
 @pytest.mark.parametrize("threads", [1, 2, 3])

@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
-from warp_hybrid.errors import RenderSettingsError
+from warp_hybrid.errors import RenderSettingsError, SceneError
 from warp_hybrid.renderer import Renderer, RenderSettings
-from warp_hybrid.scene.builders import look_at_camera, make_scene, quad, uv_sphere
+from warp_hybrid.scene.authoring.builders import look_at_camera, make_scene, quad, uv_sphere
 from warp_hybrid.scene.model import Light, LightKind, Material
 
 W, H = 80, 60
@@ -112,3 +114,36 @@ def test_update_scene_refits_moved_geometry(device: str) -> None:
 def test_bad_settings_are_clear_errors(settings: RenderSettings, message: str) -> None:
     with pytest.raises(RenderSettingsError, match=message):
         Renderer(sphere_scene(), settings)
+
+
+@pytest.mark.parametrize("mode", ["raster", "hybrid"])
+def test_a_light_added_between_two_times_is_lit(device: str, mode: str) -> None:
+    """``update_scene`` with one more light (and a recoloured material) gives the frame a
+    fresh renderer of the new scene gives: lights, materials and the visibility AOV are
+    re-uploaded, not just the points."""
+    before = sphere_scene()
+    lamp = Light(LightKind.SPHERE, "/lamp", (40.0, 10.0, 10.0), position=(2.0, 2.0, 2.0), radius=0.1)
+    red = dataclasses.replace(before.materials[0], diffuse=(0.8, 0.1, 0.1))
+    after = dataclasses.replace(before, lights=[*before.lights, lamp], materials=[red, before.materials[1]])
+    settings = dict(width=W, height=H, device=device, mode=mode, exposure_ev=0.0, threads=1)
+    cam = before.cameras[0]
+    with Renderer(before, RenderSettings(**settings)) as renderer:
+        first = renderer.render(cam)
+        renderer.update_scene(after)
+        second = renderer.render(cam)
+    with Renderer(after, RenderSettings(**settings)) as fresh:
+        reference = fresh.render(cam)
+    np.testing.assert_array_equal(second.color, reference.color)
+    np.testing.assert_array_equal(second.visibility, reference.visibility)
+    assert second.visibility.shape == (H, W, 2) and first.visibility.shape == (H, W, 1)
+    hit = second.gbuffer.hit_mask()
+    gain = second.color[hit].sum(axis=-1) - first.color[hit].sum(axis=-1)
+    assert np.mean(gain > 0.0) > 0.3  # the lamp lights a good part of what is seen
+
+
+def test_topology_change_is_refused_clearly(device: str) -> None:
+    scene = sphere_scene()
+    other = make_scene([quad((-1, -1, 0), (2, 0, 0), (0, 2, 0), 0)], scene.materials, scene.lights, scene.cameras)
+    with Renderer(scene, RenderSettings(width=W, height=H, device=device, mode="raster", threads=1)) as renderer:
+        with pytest.raises(SceneError, match="topology changed"):
+            renderer.update_scene(other)

@@ -12,7 +12,7 @@ import pytest
 from scene_paths import shared_scenes_dir
 
 from warp_hybrid.renderer import Renderer, RenderSettings
-from warp_hybrid.scene.loader import open_scene_source
+from warp_hybrid.scene.open import open_scene_source
 
 ROOT = Path(__file__).resolve().parents[1]
 HARD = ROOT / "scenes" / "hard_cases.usda"

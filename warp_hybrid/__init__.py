@@ -8,8 +8,8 @@ from .errors import RenderSettingsError, SceneError, WarpHybridError
 from .output import write_aovs, write_json, write_png
 from .renderer import Frame, Renderer, RenderSettings
 from .runtime import init_warp
-from .scene.loader import open_scene_source
-from .scene.usd_loader import load_scene
+from .scene.open import open_scene_source
+from .scene.usd.loader import load_scene
 
 __all__ = [
     "Frame",

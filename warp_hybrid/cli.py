@@ -17,7 +17,7 @@ import numpy as np
 from .errors import RenderSettingsError, WarpHybridError
 from .focus import SHAPES
 from .post.postprocess import TONEMAPS
-from .renderer import MODES
+from .renderer import MODES, PRIMARY_PATHS, RenderSettings
 from .scene.model import Scene
 
 
@@ -64,20 +64,26 @@ def resolve_gaze(text: str, scene: Scene) -> tuple[float, float]:
 
 
 def _add_render_parser(sub: argparse._SubParsersAction) -> None:
+    defaults = RenderSettings()  # the one source of the defaults (the help texts show them)
     p = sub.add_parser("render", help="render a scene to a PNG (and optionally AOVs and statistics)")
     p.add_argument("scene", help="USD file (.usd/.usda/.usdc/.usdz) or a mesh file trimesh reads")
     p.add_argument("-o", "--output", required=True, help="output PNG path")
-    p.add_argument("--size", type=parse_size, default=(640, 480), help="WIDTHxHEIGHT (default 640x480)")
+    p.add_argument(
+        "--size",
+        type=parse_size,
+        default=(defaults.width, defaults.height),
+        help=f"WIDTHxHEIGHT (default {defaults.width}x{defaults.height})",
+    )
     p.add_argument("--camera", default=None, help="camera prim path (default: the first camera)")
     p.add_argument("--time", type=float, default=None, help="USD time code (default: the stage's start)")
-    p.add_argument("--device", default="cpu", help="Warp device: cpu or cuda:0 (default cpu)")
+    p.add_argument("--device", default=defaults.device, help=f"Warp device: cpu or cuda:0 (default {defaults.device})")
     p.add_argument("--aov-dir", default=None, help="write depth/position/normal/albedo/color .npy files here")
     p.add_argument("--stats-json", default=None, help="write per-stage timings and counts as JSON here")
-    p.add_argument("--primary", choices=("raster", "raycast"), default="raster", help="primary visibility path")
+    p.add_argument("--primary", choices=PRIMARY_PATHS, default=defaults.primary, help="primary visibility path")
     p.add_argument(
         "--mode",
         choices=MODES,
-        default="hybrid",
+        default=defaults.mode,
         help="raster: deferred shading only; full: every pixel ray traced; hybrid (default): ray traced in the focus window",
     )
     p.add_argument(
@@ -87,26 +93,51 @@ def _add_render_parser(sub: argparse._SubParsersAction) -> None:
         "(e.g. trace:PATH) sampled at the frame's time (default 0.5,0.5)",
     )
     p.add_argument(
-        "--window", type=float, default=0.25, help="focus window area as a fraction of the screen (0..1, default 0.25)"
+        "--window",
+        type=float,
+        default=defaults.window_fraction,
+        help=f"focus window area as a fraction of the screen (0..1, default {defaults.window_fraction:g})",
     )
-    p.add_argument("--window-shape", choices=SHAPES, default="circle", help="focus window shape (default circle)")
-    p.add_argument("--feather", type=float, default=16.0, help="blend band inside the window edge, pixels (default 16)")
-    p.add_argument("--max-depth", type=int, default=3, help="secondary bounces per pixel (default 3)")
     p.add_argument(
-        "--shadow-samples", type=int, default=1, help="1: hard shadows; N: N samples over area/sphere lights"
+        "--window-shape",
+        choices=SHAPES,
+        default=defaults.window_shape,
+        help=f"focus window shape (default {defaults.window_shape})",
     )
-    p.add_argument("--exposure", type=parse_exposure, default=None, help="'auto' (default) or stops (EV)")
-    p.add_argument("--tonemap", choices=TONEMAPS, default="aces", help="tone mapping operator")
+    p.add_argument(
+        "--feather",
+        type=float,
+        default=defaults.feather_px,
+        help=f"blend band inside the window edge, pixels (default {defaults.feather_px:g})",
+    )
+    p.add_argument(
+        "--max-depth",
+        type=int,
+        default=defaults.max_depth,
+        help=f"secondary bounces per pixel (default {defaults.max_depth})",
+    )
+    p.add_argument(
+        "--shadow-samples",
+        type=int,
+        default=defaults.shadow_samples,
+        help="1: hard shadows; N: N samples over area/sphere lights",
+    )
+    p.add_argument(
+        "--exposure", type=parse_exposure, default=defaults.exposure_ev, help="'auto' (default) or stops (EV)"
+    )
+    p.add_argument("--tonemap", choices=TONEMAPS, default=defaults.tonemap, help="tone mapping operator")
     p.add_argument("--no-aa", dest="antialias", action="store_false", help="turn the FXAA post pass off")
-    p.add_argument("--threads", type=int, default=None, help="host threads per pass (default: one per core)")
+    p.add_argument(
+        "--threads", type=int, default=defaults.threads, help="host threads per pass (default: one per core)"
+    )
 
 
 def _cmd_render(args: argparse.Namespace) -> int:
     from .output import write_aovs, write_json, write_png
-    from .renderer import Renderer, RenderSettings
+    from .renderer import Renderer
     from .runtime import init_warp
-    from .scene.loader import open_scene_source
-    from .scene.usd_camera import select_camera
+    from .scene.open import open_scene_source
+    from .scene.usd.camera import select_camera
 
     init_warp()
     t0 = time.perf_counter()
@@ -159,8 +190,8 @@ def _add_info_parser(sub: argparse._SubParsersAction) -> None:
 def _cmd_info(args: argparse.Namespace) -> int:
     import json
 
-    from .scene.info import format_info, scene_info
-    from .scene.loader import open_scene_source
+    from .scene.open import open_scene_source
+    from .scene.usd.info import format_info, scene_info
 
     source = open_scene_source(args.scene)
     scene = source.scene_at(args.time)
@@ -176,7 +207,7 @@ def _add_convert_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def _cmd_convert(args: argparse.Namespace) -> int:
-    from .scene.convert import convert_mesh_file
+    from .scene.authoring.convert import convert_mesh_file
 
     convert_mesh_file(args.input, args.output)
     print(f"{args.output}: written")

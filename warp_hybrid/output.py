@@ -1,7 +1,9 @@
 """Writing results: PNG images, AOV arrays and statistics, always atomically.
 
 Every file is written to a temporary name in its destination folder and renamed into
-place, so an error (or a kill) never leaves a half-written output behind.
+place, so an error (or a kill) never leaves a half-written output behind; missing
+folders are created, and a new file gets the ordinary umask permissions
+(``gaze.atomic``, the one atomic writer).
 """
 
 from __future__ import annotations
@@ -9,7 +11,6 @@ from __future__ import annotations
 import io
 import json
 import os
-import tempfile
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -17,22 +18,19 @@ from typing import Any
 import cv2
 import numpy as np
 
+from gaze.atomic import write_atomic
+from gaze.errors import GazeError
+
 from .errors import WarpHybridError
 
 
 def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> None:
-    """Write ``data`` to ``path`` through a temporary file and an atomic rename."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    """Write ``data`` to ``path`` through a temporary file and an atomic rename, creating
+    missing folders; a file-system error is a ``WarpHybridError`` naming the file."""
     try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+        write_atomic(path, data, make_parents=True)
+    except GazeError as exc:
+        raise WarpHybridError(str(exc)) from None
 
 
 def encode_png(image: np.ndarray) -> bytes:

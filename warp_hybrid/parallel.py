@@ -2,9 +2,11 @@
 
 A Warp CPU launch runs on one thread, but Warp releases the GIL while it runs, so
 launching disjoint pieces of a pass from two Python threads uses both cores.  Every
-per-pixel kernel in the renderer takes ``row0, row_step`` as its last two inputs and
-processes rows ``row0, row0 + row_step, ...`` (interleaved rows balance the load
-better than bands).  On a CUDA device one piece covers everything.
+per-pixel kernel takes ``row0, row_step, cols`` as its last three inputs
+(``launch_pixels``): on the CPU each launch item is one row, the rows
+``row0, row0 + row_step, ...`` of a piece (interleaved rows balance the load better
+than bands); on CUDA the same kernel source runs one thread per pixel.  1-D kernels
+(vertices, triangles, pixel lists) take ``start, step`` (``launch_items``).
 
 Passes whose writes could collide (the visibility buffer) use ``Launcher.run`` with
 one output buffer per piece and merge them afterwards.
@@ -73,21 +75,27 @@ class Launcher:
         futures = [self._pool.submit(piece, k, n) for k in range(n)]
         return [f.result() for f in futures]
 
-    def launch_rows(self, kernel: wp.Kernel, height: int, width: int, inputs: Sequence[Any]) -> None:
-        """Launch a per-pixel kernel over rows split across threads.
+    def launch_pixels(self, kernel: wp.Kernel, height: int, width: int, inputs: Sequence[Any]) -> None:
+        """Launch a per-pixel kernel in the shape this device wants, from one source.
 
-        The kernel's last two inputs must be ``row0: int, row_step: int``; its launch
-        dimension is ``(rows in this piece, width)`` and it maps ``tid`` row r to image
-        row ``row0 + r * row_step``.
+        The kernel's last three inputs must be ``row0: int, row_step: int, cols: int``;
+        its launch item ``(r, c)`` (``wp.tid()``) handles image row ``row0 + r * row_step``,
+        columns ``c * cols`` up to ``min((c + 1) * cols, width)``.  On the CPU an item is a
+        whole row (``cols = width``; the big struct arguments are copied once per row,
+        not per pixel) and the rows are interleaved across the threads; on CUDA an
+        item is one pixel (``cols = 1``), one thread each.
         """
         if height <= 0 or width <= 0:
             return
         self.ensure_loaded(kernel)
+        if self.device.is_cuda:
+            wp.launch(kernel, dim=(height, width), inputs=[*inputs, 0, 1, 1], device=self.device)
+            return
         n = min(self.threads, height)
 
         def piece(k: int, count: int) -> None:
             rows = (height - k + count - 1) // count
-            wp.launch(kernel, dim=(rows, width), inputs=[*inputs, k, count], device=self.device)
+            wp.launch(kernel, dim=(rows, 1), inputs=[*inputs, k, count, width], device=self.device)
 
         self.run(piece, n)
 

@@ -1,13 +1,15 @@
 """The renderer as a library: a scene in, frames out, every stage timed.
 
-``Renderer`` owns everything that lives across frames (the device scene and its BVH,
-the stage objects, the frame buffers); each call to ``render`` takes all per-frame
-state explicitly (camera, time) and returns a ``Frame`` with the colour, the
-G-buffer AOVs and per-stage statistics.  There are no module-level globals; the clock
-is injected.
+``Renderer`` owns what lives across frames (the passes, the frame buffers) and uses a
+``DeviceScene`` (its own, or one the caller shares: a viewer resizes without rebuilding
+the BVH); each ``render`` takes all per-frame state explicitly (camera, focus window)
+and returns a ``Frame`` with the colour, the G-buffer AOVs and per-stage statistics.
+There are no module-level globals; the clock is injected.
 
-Pipeline stages, in order (one subpackage each): scene -> raster -> lighting ->
-focus -> trace -> compose -> post.
+A frame runs the mode's passes in order (``core.passes``), each on the frame's
+``FrameContext``: primary visibility (raster or ray cast) -> focus region (hybrid and
+full) -> deferred lighting (raster and hybrid; it skips the window's interior) ->
+tracing (hybrid and full) -> compose (hybrid) -> post.
 """
 
 from __future__ import annotations
@@ -19,19 +21,20 @@ import numpy as np
 import warp as wp
 
 from .compose import Compositor
+from .core.camera import make_camera_gpu
+from .core.gbuffer import GBuffer
+from .core.passes import FrameBuffers, FrameContext, RenderPass
 from .errors import RenderSettingsError
-from .focus import SHAPES, FocusRegion, FocusRegionBuilder, FocusWindow
+from .focus import SHAPES, FocusRegionBuilder, FocusWindow
 from .lighting.deferred import DeferredLighting
 from .parallel import Launcher
 from .post.postprocess import TONEMAPS, PostProcess
-from .raster.gbuffer import GBuffer
-from .raster.raycast import RayCaster
-from .raster.rasterizer import Rasterizer
+from .primary import Rasterizer, RayCaster
 from .runtime import resolve_device
-from .scene.device import DeviceScene, make_camera_gpu
+from .scene.device import DeviceScene
 from .scene.model import Camera, Scene
 from .timing import Clock, StageTimer, perf_clock
-from .trace.tracer import Tracer, TraceSettings
+from .trace import Tracer, TraceSettings
 
 PRIMARY_PATHS = ("raster", "raycast")
 MODES = ("raster", "full", "hybrid")
@@ -118,47 +121,71 @@ class Frame:
 
 
 class Renderer:
-    """Renders frames of one scene on one device at one resolution."""
+    """Renders frames of one scene on one device at one resolution (``resize`` changes it)."""
 
-    def __init__(self, scene: Scene, settings: RenderSettings | None = None, clock: Clock = perf_clock) -> None:
-        """Upload ``scene`` and build the BVH; ``clock`` times every stage."""
+    def __init__(
+        self, scene: Scene | DeviceScene, settings: RenderSettings | None = None, clock: Clock = perf_clock
+    ) -> None:
+        """Upload ``scene`` and build its BVH, or use a ``DeviceScene`` the caller owns
+        (on the settings' device); ``clock`` times every stage."""
         self.settings = settings or RenderSettings()
         self.settings.validate()
         self.clock = clock
         self.device = resolve_device(self.settings.device)
         self._sync = (lambda: wp.synchronize_device(self.device)) if self.device.is_cuda else None
         self.setup_ms: dict[str, float] = {}
-        timer = self._timer()
-        self.device_scene = DeviceScene(scene, self.device, timer)
-        self.setup_ms = dict(timer.stages_ms)
-        self.launcher = Launcher(self.device, self.settings.threads)
-        primary_cls = Rasterizer if self.settings.primary == "raster" else RayCaster
-        self.primary = primary_cls(self.launcher)
-        self.lighting = DeferredLighting(self.launcher)
-        self.post = PostProcess(self.launcher)
-        s = self.settings
-        w, h = s.width, s.height
-        self.gbuffer = GBuffer.allocate(w, h, self.device)
-        self.raster_color = wp.zeros((h, w), dtype=wp.vec3, device=self.device)
-        lights = len(scene.lights)
-        self.visibility = wp.full((h, w, lights), value=float("nan"), dtype=wp.float32, device=self.device)
-        self.tracer: Tracer | None = None
-        if s.mode != "raster":
-            trace_settings = TraceSettings(max_depth=s.max_depth, shadow_samples=s.shadow_samples)
-            self.tracer = Tracer(self.launcher, self.device_scene.features, trace_settings)
-            self.traced_color = wp.zeros((h, w), dtype=wp.vec3, device=self.device)
-            self.focus = FocusRegionBuilder(self.launcher, w, h)
-            self.compositor = Compositor(self.launcher)
-            self.color = (
-                wp.zeros((h, w), dtype=wp.vec3, device=self.device) if s.mode == "hybrid" else self.traced_color
-            )
+        if isinstance(scene, DeviceScene):
+            if scene.device != self.device:
+                raise RenderSettingsError(f"the device scene is on {scene.device.alias}, not {self.device.alias}")
+            self.device_scene = scene
         else:
-            self.color = self.raster_color
+            timer = self._timer()
+            self.device_scene = DeviceScene(scene, self.device, timer)
+            self.setup_ms = dict(timer.stages_ms)
+        self.launcher = Launcher(self.device, self.settings.threads)
+        self.passes = self._make_passes()
+        self.buffers = self._make_buffers(self.settings.width, self.settings.height)
+        self._set_scene()
+
+    def _make_passes(self) -> list[RenderPass]:
+        """The mode's passes, in frame order."""
+        s = self.settings
+        primary_cls = Rasterizer if s.primary == "raster" else RayCaster
+        passes: list[RenderPass] = [primary_cls(self.launcher)]
+        if s.mode != "raster":
+            passes.append(FocusRegionBuilder(self.launcher, s.width, s.height))
+        if s.mode != "full":
+            passes.append(DeferredLighting(self.launcher))
+        if s.mode != "raster":
+            passes.append(Tracer(self.launcher, TraceSettings(max_depth=s.max_depth, shadow_samples=s.shadow_samples)))
+        if s.mode == "hybrid":
+            passes.append(Compositor(self.launcher))
+        passes.append(PostProcess(self.launcher, s.exposure_ev, s.tonemap, s.antialias))
+        return passes
+
+    def _make_buffers(self, width: int, height: int) -> FrameBuffers:
+        """Frame buffers for this size and the scene's lights; ``color`` is the layer
+        the mode shows (raster, traced, or the composed one)."""
+        buffers = FrameBuffers(width, height, len(self.scene.lights), self.device)
+        if self.settings.mode == "raster":
+            buffers.color = buffers.raster_color
+        elif self.settings.mode == "full":
+            buffers.color = buffers.traced_color
+        return buffers
+
+    def _set_scene(self) -> None:
+        for p in self.passes:
+            p.set_scene(self.device_scene)
 
     @property
     def scene(self) -> Scene:
         """The scene currently on the device."""
         return self.device_scene.scene
+
+    @property
+    def tracer(self) -> Tracer | None:
+        """The tracing pass (None in raster mode)."""
+        return next((p for p in self.passes if isinstance(p, Tracer)), None)
 
     def _timer(self) -> StageTimer:
         return StageTimer(clock=self.clock, sync=self._sync)
@@ -173,6 +200,14 @@ class Renderer:
     def __exit__(self, *exc: object) -> None:
         self.close()
 
+    def resize(self, width: int, height: int) -> None:
+        """Render ``width`` x ``height`` frames from now on (the scene and its BVH stay)."""
+        self.settings.width, self.settings.height = width, height
+        self.settings.validate()
+        for p in self.passes:
+            p.resize(width, height)
+        self.buffers = self._make_buffers(width, height)
+
     def warm_up(self, camera: Camera) -> float:
         """Render and discard one frame so every kernel this scene needs is compiled
         and loaded; the time goes to ``setup_ms["warm_up"]`` (not to a frame's stages)
@@ -184,11 +219,15 @@ class Renderer:
         return elapsed
 
     def update_scene(self, scene: Scene) -> float:
-        """Swap in the same scene at another time (same topology): copy the moved
-        points and refit the BVH.  Returns the milliseconds it took."""
+        """Swap in the same scene at another time (same topology): copy what moved,
+        refit the BVH, re-upload what changed (lights, materials, the dome) and let
+        every pass see it.  Returns the milliseconds it took."""
         timer = self._timer()
         with timer.stage("refit"):
             self.device_scene.update(scene)
+            self._set_scene()
+            if not self.buffers.fits(self.settings.width, self.settings.height, len(scene.lights)):
+                self.buffers = self._make_buffers(self.settings.width, self.settings.height)
         return timer.total_ms
 
     def default_window(self, gaze: tuple[float, float] = (0.5, 0.5)) -> FocusWindow:
@@ -203,26 +242,20 @@ class Renderer:
         window at the screen centre).  It is ignored in raster and full modes.
         """
         s = self.settings
-        timer = self._timer()
-        cam = make_camera_gpu(camera, s.width, s.height)
-        self.gbuffer.clear()
-        self.primary.render(self.device_scene, cam, self.gbuffer, timer)
-        trace_stats: dict[str, Any] = {}
-        region: FocusRegion | None = None
-        if s.mode == "full":
-            region = self.focus.full_screen()
-        elif s.mode == "hybrid":
-            region = self.focus.build(window or self.default_window(), timer)
-        if s.mode != "full":
-            # hybrid: the window's interior (weight 1) is replaced by the traced layer
-            skip = region.weight if region is not None else None
-            self.lighting.shade(self.device_scene, cam, self.gbuffer, self.raster_color, timer, skip_weight=skip)
-        if region is not None:
-            trace_stats = self._trace(cam, region, window or self.default_window(), timer)
-        image = self.post.run(self.color, s.exposure_ev, s.tonemap, s.antialias, timer, self.gbuffer.triangle_id)
-        with timer.stage("readback"):
-            color = self.color.numpy().astype(np.float32)
-            visibility = self.visibility.numpy().astype(np.float32)
+        if s.mode == "hybrid":
+            window = window or self.default_window()
+        else:
+            window = None
+        frame = FrameContext(
+            camera=make_camera_gpu(camera, s.width, s.height), timer=self._timer(), buffers=self.buffers, window=window
+        )
+        for p in self.passes:
+            p.execute(frame)
+        with frame.timer.stage("readback"):
+            color = self.buffers.color.numpy().astype(np.float32)
+            visibility = self.buffers.visibility.numpy().astype(np.float32)
+            image = np.array(frame.image.numpy(), copy=True)
+            rays = frame.rays.read() if frame.rays is not None else None
         stats = {
             "scene": self.scene.path,
             "camera": camera.name,
@@ -235,34 +268,31 @@ class Renderer:
             "threads": self.launcher.threads,
             "effects": self.device_scene.features.names(),
             "setup_ms": dict(self.setup_ms),
-            "stages_ms": dict(timer.stages_ms),
-            "frame_ms": timer.total_ms,
-            "exposure_ev": self.post.last_exposure_ev,
-            **trace_stats,
+            "stages_ms": dict(frame.timer.stages_ms),
+            "frame_ms": frame.timer.total_ms,
+            "exposure_ev": self._post.last_exposure_ev,
         }
-        return Frame(color=color, image=image, gbuffer=self.gbuffer, visibility=visibility, stats=stats)
+        if frame.region is not None and rays is not None:
+            stats.update(self._trace_stats(frame, rays))
+        return Frame(color=color, image=image, gbuffer=self.buffers.gbuffer, visibility=visibility, stats=stats)
 
-    def _trace(self, cam: Any, region: FocusRegion, window: FocusWindow, timer: StageTimer) -> dict[str, Any]:
-        """Trace ``region`` (every pixel in full mode) and compose it over the raster
-        image; returns the frame's tracing statistics."""
-        assert self.tracer is not None
-        full = self.settings.mode == "full"
-        self.visibility.fill_(float("nan"))
-        counts = self.tracer.trace(
-            self.device_scene, cam, self.gbuffer, region.pixels, region.count, self.traced_color, self.visibility, timer
-        )
-        if not full:
-            self.compositor.blend(self.raster_color, self.traced_color, region.weight, self.color, timer)
-        layout = region.layout
+    @property
+    def _post(self) -> PostProcess:
+        return next(p for p in self.passes if isinstance(p, PostProcess))
+
+    def _trace_stats(self, frame: FrameContext, rays: Any) -> dict[str, Any]:
+        """The frame's tracing statistics."""
+        layout = frame.region.layout
+        full = frame.window is None
         return {
-            "rays": counts.to_dict(),
+            "rays": rays.to_dict(),
             "window": {
-                "gaze": list(window.gaze) if not full else None,
-                "fraction": 1.0 if full else window.fraction,
+                "gaze": list(frame.window.gaze) if not full else None,
+                "fraction": 1.0 if full else frame.window.fraction,
                 "shape": layout.shape,
                 "centre_px": [layout.cx, layout.cy],
                 "feather_px": layout.feather_px,
-                "pixels": region.count,
+                "pixels": frame.region.count,
                 "covered_fraction": layout.covered_fraction,
             },
         }

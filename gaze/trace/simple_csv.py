@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from gaze.atomic import write_text_atomic
+from gaze.atomic import write_atomic
 from gaze.errors import GazeError
 from gaze.trace.data import DEFAULT_MIN_CONFIDENCE, TraceData, make_trace_data
 from gaze.trace.table import Table, read_table
@@ -123,7 +123,7 @@ def write_simple(
     screen_px: tuple[int, int] | None = None,
 ) -> None:
     """Write a simple CSV trace atomically (see ``format_simple``)."""
-    write_text_atomic(path, format_simple(t, x, y, confidence, valid, screen_px, where=str(path)))
+    write_atomic(path, format_simple(t, x, y, confidence, valid, screen_px, where=str(path)))
 
 
 def write_trace(path: str | Path, data: TraceData, screen_px: tuple[int, int] | None = None) -> None:

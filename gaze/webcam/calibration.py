@@ -30,7 +30,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from gaze.atomic import write_text_atomic
+from gaze.atomic import write_atomic
 from gaze.errors import GazeError
 from gaze.trace.table import read_table
 from gaze.webcam.face import Box, FaceReference
@@ -98,7 +98,7 @@ class Calibration:
 
     def save(self, path: str | Path) -> None:
         """Write the JSON file atomically."""
-        write_text_atomic(path, json.dumps(self.to_json(), indent=1) + "\n")
+        write_atomic(path, json.dumps(self.to_json(), indent=1) + "\n")
 
 
 def fit_polynomial(

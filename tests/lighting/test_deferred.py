@@ -8,11 +8,12 @@ import numpy as np
 import pytest
 import warp as wp
 
-from warp_hybrid.lighting.deferred import DeferredLighting, transmittance_buffer
+from warp_hybrid.lighting.deferred import DeferredLighting
 from warp_hybrid.parallel import Launcher
-from warp_hybrid.raster.gbuffer import GBuffer
-from warp_hybrid.scene.builders import look_at_camera, make_scene, quad
-from warp_hybrid.scene.device import DeviceScene, make_camera_gpu
+from warp_hybrid.core.gbuffer import GBuffer
+from warp_hybrid.scene.authoring.builders import look_at_camera, make_scene, quad
+from warp_hybrid.core.camera import make_camera_gpu
+from warp_hybrid.scene.device import DeviceScene
 from warp_hybrid.scene.model import Environment, Light, LightKind, Material
 from warp_hybrid.timing import StageTimer
 
@@ -32,7 +33,7 @@ def _plane_gbuffer(
 ) -> GBuffer:
     """Every pixel sees the plane y = 0 (normal +Y) at x = column - W/2, z = row - H/2;
     the first ``background_cols`` columns are background."""
-    gb = GBuffer.allocate(W, H, device)
+    gb = GBuffer(W, H, device)
     rows, cols = np.mgrid[0:H, 0:W].astype(np.float32)
     pos = np.stack([cols - W / 2, np.zeros_like(cols), rows - H / 2], axis=-1)
     normal = np.zeros((H, W, 3), np.float32)
@@ -50,7 +51,10 @@ def _plane_gbuffer(
     gb.albedo.assign(fill(albedo))
     gb.specular.assign(fill(specular))
     gb.emission.assign(fill(emission))
-    gb.optics.assign(fill((max(specular), ior, opacity, roughness)))
+    optics = np.zeros((H, W), dtype=gb.optics.numpy().dtype)
+    for name, value in zip(("reflectivity", "ior", "opacity", "roughness"), (max(specular), ior, opacity, roughness)):
+        optics[name] = value
+    gb.optics.assign(optics)
     gb.material_id.assign(np.where(hit, material, -1).astype(np.int32))
     gb.triangle_id.assign(np.where(hit, 0, -1).astype(np.int32))
     return gb
@@ -63,11 +67,11 @@ def _scene(device, lights=(), environment=None, materials=None) -> DeviceScene:
     )
 
 
-def _shade(device, ds, gb, transmittance=None, threads=None, eye=(0.0, 5.0, 8.0)) -> np.ndarray:
+def _shade(device, ds, gb, threads=None, eye=(0.0, 5.0, 8.0)) -> np.ndarray:
     cam = make_camera_gpu(look_at_camera(eye, (0.0, 0.0, 0.0)), W, H)
     out = wp.zeros((H, W), dtype=wp.vec3, device=device)
     with Launcher(device, threads=threads) as launcher:
-        DeferredLighting(launcher).shade(ds, cam, gb, out, StageTimer(), light_transmittance=transmittance)
+        DeferredLighting(launcher).shade(ds, cam, gb, out, StageTimer())
     return out.numpy()
 
 
@@ -126,7 +130,7 @@ def test_specular_surface_in_a_white_furnace(device):
     np.testing.assert_allclose(metal[H // 2, W // 2], f0 + (1.0 - f0) * (1.0 - n_dot_v) ** 5, rtol=0.01)
 
 
-def test_light_transmittance_scales_each_light(device):
+def test_lights_add_up(device):
     sun = Light(LightKind.DISTANT, "/sun", (2.0, 2.0, 2.0), direction=(0.0, -1.0, 0.0))
     bulb = Light(LightKind.SPHERE, "/bulb", (5.0, 5.0, 5.0), position=(0.0, 3.0, 0.0), radius=0.0)
     ds = _scene(device, [sun, bulb])
@@ -135,16 +139,6 @@ def test_light_transmittance_scales_each_light(device):
     only_bulb = _shade(device, _scene(device, [bulb]), gb)
     both = _shade(device, ds, gb)
     np.testing.assert_allclose(both, only_sun + only_bulb, rtol=1e-5)
-    t = transmittance_buffer(H, W, 2, device)
-    tn = t.numpy()
-    tn[..., 0, :] = (1.0, 0.5, 0.0)  # a red-ish filter in front of the sun
-    tn[: H // 2, :, 1, :] = 0.0  # the bulb blocked on the top half
-    t.assign(tn)
-    shadowed = _shade(device, ds, gb, transmittance=t)
-    expected = only_sun * [1.0, 0.5, 0.0] + only_bulb * (np.arange(H) >= H // 2)[:, None, None]
-    np.testing.assert_allclose(shadowed, expected, rtol=1e-5, atol=1e-7)
-    with pytest.raises(ValueError, match="light_transmittance"):
-        _shade(device, ds, gb, transmittance=transmittance_buffer(H, W, 3, device))
 
 
 def test_transmissive_raster_approximation(device):

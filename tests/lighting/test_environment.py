@@ -8,16 +8,16 @@ import numpy as np
 import pytest
 import warp as wp
 
+from warp_hybrid.scene.device.dome import radiance_mips
 from warp_hybrid.lighting.ambient import (
-    AmbientGPU,
-    EnvironmentLighting,
+
     dome_irradiance,
     prefiltered_radiance,
-    radiance_mips,
 )
-from warp_hybrid.scene.builders import make_scene, quad
-from warp_hybrid.scene.device import DeviceScene, SceneGPU
-from warp_hybrid.scene.environment import (
+from warp_hybrid.scene.authoring.builders import make_scene, quad
+from warp_hybrid.core.scene_gpu import AmbientGPU, SceneGPU
+from warp_hybrid.scene.device import DeviceScene
+from warp_hybrid.scene.device.environment import (
     environment_direction,
     environment_radiance,
     environment_uv,
@@ -75,7 +75,7 @@ def _dome_scene(
 
 
 def _eval(device: str, ds: DeviceScene, dirs: np.ndarray, roughness: float = 0.0) -> dict[str, np.ndarray]:
-    amb = EnvironmentLighting.for_scene(ds)
+    amb = ds.ambient
     count = len(dirs)
     out = {
         "uv": wp.zeros(count, dtype=wp.vec2, device=device),
@@ -88,7 +88,7 @@ def _eval(device: str, ds: DeviceScene, dirs: np.ndarray, roughness: float = 0.0
         dim=count,
         inputs=[
             ds.gpu,
-            amb.gpu,
+            amb,
             wp.array(np.asarray(dirs, np.float32), dtype=wp.vec3, device=device),
             float(roughness),
         ],
@@ -206,15 +206,16 @@ def test_prefiltered_radiance(device):
     assert [m.shape[:2] for m in radiance_mips(stripe[..., :3])] == [(32, 64), (16, 32), (8, 16), (4, 8)]
 
 
-def test_ambient_data_is_cached_per_scene_and_follows_the_dome(device):
+def test_ambient_data_is_owned_by_the_device_scene_and_follows_the_dome(device):
     ds = _dome_scene(device, None, color=(0.2, 0.4, 0.6))
-    first = EnvironmentLighting.for_scene(ds)
-    assert EnvironmentLighting.for_scene(ds) is first
+    first = ds.ambient
+    ds.update(ds.scene)
+    assert ds.ambient is first
     brighter = make_scene(
         [quad((0, 0, 0), (1, 0, 0), (0, 1, 0))], [Material("m")], environment=Environment("/dome", (1.0, 1.0, 1.0))
     )
     ds.update(brighter)
-    second = EnvironmentLighting.for_scene(ds)
+    second = ds.ambient
     assert second is not first
     n = np.array([[0.0, 1.0, 0.0]])
     np.testing.assert_allclose(_eval(device, ds, n)["irradiance"][0], math.pi, rtol=1e-5)

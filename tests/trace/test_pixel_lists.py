@@ -12,11 +12,13 @@ from trace_kit import ALL_FEATURES, trace_scene
 from warp_hybrid.errors import RenderSettingsError
 from warp_hybrid.lighting.deferred import DeferredLighting
 from warp_hybrid.parallel import Launcher
-from warp_hybrid.raster.gbuffer import GBuffer
-from warp_hybrid.raster.rasterizer import Rasterizer
-from warp_hybrid.scene.builders import look_at_camera, make_scene, quad, uv_sphere
-from warp_hybrid.scene.device import DeviceScene, make_camera_gpu
-from warp_hybrid.scene.model import Environment, Light, LightKind, Material, SceneFeatures
+from warp_hybrid.core.gbuffer import GBuffer
+from warp_hybrid.primary import Rasterizer
+from warp_hybrid.scene.authoring.builders import look_at_camera, make_scene, quad, uv_sphere
+from warp_hybrid.core.camera import make_camera_gpu
+from warp_hybrid.scene.device import DeviceScene
+from warp_hybrid.core.features import SceneFeatures
+from warp_hybrid.scene.model import Environment, Light, LightKind, Material
 from warp_hybrid.timing import StageTimer
 from warp_hybrid.trace import TraceSettings, TraceVariant
 
@@ -91,7 +93,7 @@ def test_diffuse_scene_compiles_and_launches_no_secondary_rays(device: str) -> N
     )
     cam = look_at_camera((0.0, 4.0, 6.0), (0.0, 0.5, 0.0))
     out = trace_scene(scene, cam, device, W, H)
-    assert out.tracer.variant == TraceVariant(shadows=True)
+    assert out.tracer.variant == TraceVariant(SceneFeatures(shadows=True))
     assert out.counts.reflection == 0 and out.counts.refraction == 0
     assert out.counts.shadow > 0
 
@@ -112,7 +114,7 @@ def test_without_secondary_rays_the_traced_shading_is_the_raster_shading(device:
     )
     out = trace_scene(scene, cam, device, W, H, settings=TraceSettings(max_depth=0), features=ALL_FEATURES)
     ds = DeviceScene(scene, device)
-    gb = GBuffer.allocate(W, H, device)
+    gb = GBuffer(W, H, device)
     raster = wp.zeros((H, W), dtype=wp.vec3, device=device)
     with Launcher(device, threads=1) as launcher:
         camera = make_camera_gpu(cam, W, H)

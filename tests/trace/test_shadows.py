@@ -10,13 +10,14 @@ import math
 import numpy as np
 import pytest
 import warp as wp
-from trace_kit import ALL_FEATURES, emissive, trace_scene
+from trace_kit import ALL_FEATURES, emissive, trace_variants
 
 from warp_hybrid.parallel import Launcher
-from warp_hybrid.raster.gbuffer import GBuffer
-from warp_hybrid.raster.rasterizer import Rasterizer
-from warp_hybrid.scene.builders import MeshInput, look_at_camera, make_scene, quad, uv_sphere
-from warp_hybrid.scene.device import DeviceScene, make_camera_gpu
+from warp_hybrid.core.gbuffer import GBuffer
+from warp_hybrid.primary import Rasterizer
+from warp_hybrid.scene.authoring.builders import MeshInput, look_at_camera, make_scene, quad, uv_sphere
+from warp_hybrid.core.camera import make_camera_gpu
+from warp_hybrid.scene.device import DeviceScene
 from warp_hybrid.scene.model import Light, LightKind, Material
 from warp_hybrid.timing import StageTimer
 from warp_hybrid.trace import Tracer, TraceSettings
@@ -49,7 +50,7 @@ def test_sphere_shadow_is_the_analytic_ellipse(device: str) -> None:
     r / cos 45 and r, i.e. pi sqrt(2) * 24^2 = 2559.3 pixels; visibility is exactly 0
     inside, 1 outside."""
     scene, cam = _sphere_over_plane(45.0)
-    out = trace_scene(scene, cam, device, W, H)
+    out = trace_variants(scene, cam, device, W, H)
     plane = (out.triangle_id >= 0) & (out.triangle_id < 2)
     assert plane.all(), "the view must see only the plane"
     vis = out.visibility[..., 0]
@@ -72,15 +73,15 @@ def test_soft_shadow_of_a_sphere_light_has_a_penumbra(device: str) -> None:
     of partial visibility appears around it; with 1 sample it is hard."""
     light = Light(LightKind.SPHERE, "/bulb", (50.0, 50.0, 50.0), position=(-6.0, 9.0, 0.0), radius=0.5)
     scene, cam = _sphere_over_plane(45.0, light)
-    hard = trace_scene(scene, cam, device, W, H).visibility[..., 0]
-    soft_run = trace_scene(scene, cam, device, W, H, settings=TraceSettings(shadow_samples=16, seed=7))
+    hard = trace_variants(scene, cam, device, W, H).visibility[..., 0]
+    soft_run = trace_variants(scene, cam, device, W, H, settings=TraceSettings(shadow_samples=16, seed=7))
     soft = soft_run.visibility[..., 0]
     assert set(np.unique(hard).tolist()) == {0.0, 1.0}
     partial = (soft > 0.0) & (soft < 1.0)
     assert partial.sum() > 100
     assert (soft == 0.0).sum() < (hard == 0.0).sum()
     assert soft_run.counts.shadow == 16 * W * H
-    again = trace_scene(scene, cam, device, W, H, settings=TraceSettings(shadow_samples=16, seed=7)).visibility
+    again = trace_variants(scene, cam, device, W, H, settings=TraceSettings(shadow_samples=16, seed=7)).visibility
     assert np.array_equal(again[..., 0], soft)
 
 
@@ -124,8 +125,8 @@ def test_shadow_through_a_red_pane_is_red(device: str) -> None:
         lights=scene.lights,
         cameras=[cam],
     )
-    out = trace_scene(scene, cam, device, W, H, features=ALL_FEATURES)
-    ref = trace_scene(lit_scene, cam, device, W, H, features=ALL_FEATURES)
+    out = trace_variants(scene, cam, device, W, H)
+    ref = trace_variants(lit_scene, cam, device, W, H)
     floor = (out.triangle_id >= 0) & (out.triangle_id < 2)
     x, z = out.position[..., 0], out.position[..., 2]
     under = floor & (np.abs(x) < 0.9) & (np.abs(z) < 0.9)
@@ -154,7 +155,7 @@ def test_alpha_cutouts_cast_no_shadow_where_cut_away(device: str, opacity: float
     ]
     light = Light(LightKind.DISTANT, "/sun", (2.0, 2.0, 2.0), direction=(0.6, -1.0, 0.0))
     cam = look_at_camera((0.0, 5.0, 6.0), (0.0, 0.0, 0.0))
-    out = trace_scene(make_scene(meshes, mats, lights=[light], cameras=[cam]), cam, device, W, H, features=ALL_FEATURES)
+    out = trace_variants(make_scene(meshes, mats, lights=[light], cameras=[cam]), cam, device, W, H)
     floor = (out.triangle_id >= 0) & (out.triangle_id < 2)
     x, z = out.position[..., 0], out.position[..., 2]
     shadow = floor & (np.abs(x - 0.6) < 0.9) & (np.abs(z) < 0.9)  # the quad projected along the light
@@ -187,7 +188,7 @@ def test_emitter_geometry_of_an_area_light_casts_no_shadow(device: str) -> None:
         axis_v=(0.0, 0.0, 0.5),
     )
     cam = look_at_camera((0.0, 2.5, 6.0), (0.0, 0.0, 0.0))
-    out = trace_scene(make_scene(meshes, mats, lights=[light], cameras=[cam]), cam, device, W, H, features=ALL_FEATURES)
+    out = trace_variants(make_scene(meshes, mats, lights=[light], cameras=[cam]), cam, device, W, H)
     floor = (out.triangle_id >= 0) & (out.triangle_id < 2)
     x, z = out.position[..., 0], out.position[..., 2]
     vis = out.visibility[..., 0]
@@ -229,7 +230,7 @@ def test_no_acne_at_grazing_light(device: str, scale: float, incidence_deg: floa
     eye = (origin + 12.0 * normal) * scale
     cam = look_at_camera(tuple(eye), tuple(origin * scale), hfov_deg=40.0, near=0.01 * scale, far=100.0 * scale)
     scene = make_scene([MeshInput(pts, idx, 0)], [Material("/plane", roughness=0.9)], lights=[light], cameras=[cam])
-    out = trace_scene(scene, cam, device, 64, 48)
+    out = trace_variants(scene, cam, device, 64, 48)
     hit = out.triangle_id >= 0
     assert hit.sum() > 0.8 * hit.size
     assert np.all(out.visibility[..., 0][hit] == 1.0)
@@ -242,11 +243,11 @@ def test_shadow_bvhs_follow_animated_points(device: str) -> None:
     scene, cam = _pane_scene(0.3)
     ds = DeviceScene(scene, device)
     camera = make_camera_gpu(cam, W, H)
-    gb = GBuffer.allocate(W, H, device)
+    gb = GBuffer(W, H, device)
     pixels = wp.array(np.arange(W * H, dtype=np.int32), dtype=wp.int32, device=device)
     shadows = []
     with Launcher(device, threads=1) as launcher:
-        tracer = Tracer(launcher, ALL_FEATURES, TraceSettings())
+        tracer = Tracer(launcher, TraceSettings(), ALL_FEATURES)
         for shift in (0.0, 1.5):
             points = scene.points.copy()
             points[4:] += np.array([shift, 0.0, 0.0], np.float32)  # the pane's vertices

@@ -8,9 +8,9 @@ import math
 
 import numpy as np
 import pytest
-from trace_kit import ALL_FEATURES, box, camera_rays, emissive, trace_scene
+from trace_kit import box, camera_rays, emissive, trace_variants
 
-from warp_hybrid.scene.builders import MeshInput, look_at_camera, make_scene, quad, uv_sphere
+from warp_hybrid.scene.authoring.builders import MeshInput, look_at_camera, make_scene, quad, uv_sphere
 from warp_hybrid.scene.model import Light, LightKind, Material
 from warp_hybrid.trace import TraceSettings
 
@@ -49,7 +49,7 @@ def test_mirror_reflects_the_pattern_at_the_predicted_pixels(device: str) -> Non
     blue = quad((-4.0, -4.0, -1.0), (0.0, 0.0, -4.0), (0.0, 8.0, 0.0), 2)
     cam = look_at_camera((0.0, 0.0, 0.0), (0.0, 0.0, -1.0), hfov_deg=30.0)
     scene = make_scene([mirror, red, blue], mats, cameras=[cam])
-    out = trace_scene(scene, cam, device, W, H, features=ALL_FEATURES)
+    out = trace_variants(scene, cam, device, W, H)
     o, d = camera_rays(cam, W, H)
     n = np.array([-s, 0.0, s])
     p = o + _plane_hit(o, d, np.array([0.0, 0.0, -5.0]), n)[..., None] * d
@@ -78,7 +78,7 @@ def test_glass_slab_shifts_the_view_by_the_analytic_amount(device: str) -> None:
     blue = quad((0.2, -6.0, -9.0), (6.0, 0.0, 0.0), (0.0, 12.0, 0.0), 2)
     cam = look_at_camera((0.0, 0.0, 0.0), (0.0, 0.0, -1.0), hfov_deg=24.0)
     scene = make_scene([slab, red, blue], mats, cameras=[cam])
-    out = trace_scene(scene, cam, device, W, H, features=ALL_FEATURES)
+    out = trace_variants(scene, cam, device, W, H)
 
     o, d = camera_rays(cam, W, H)
     a = math.radians(45.0)
@@ -133,7 +133,7 @@ def test_total_internal_reflection_in_a_prism(device: str) -> None:
     blue = quad((-6.0, -6.0, -8.0), (12.0, 0.0, 0.0), (0.0, 12.0, 0.0), 2)  # z = -8, facing +z
     cam = look_at_camera((0.0, 0.0, 20.0), (0.0, 0.0, 0.0), hfov_deg=6.0)
     scene = make_scene([_prism(0), red, blue], mats, cameras=[cam])
-    out = trace_scene(scene, cam, device, W, H, features=ALL_FEATURES)
+    out = trace_variants(scene, cam, device, W, H)
     o, d = camera_rays(cam, W, H)
     p = o + _plane_hit(o, d, np.zeros(3), np.array([0.0, 0.0, 1.0]))[..., None] * d
     inner = (np.abs(p[..., 0]) < 0.9) & (np.abs(p[..., 1]) < 0.9) & (out.triangle_id >= 0) & (out.triangle_id < 8)
@@ -155,7 +155,7 @@ def test_fresnel_reflectance_is_0_04_at_normal_incidence(device: str) -> None:
     emitter = quad((-50.0, -50.0, 20.0), (0.0, 100.0, 0.0), (100.0, 0.0, 0.0), 1)  # z = 20 facing -z
     cam = look_at_camera((0.0, 0.0, 10.0), (0.0, 0.0, 0.0), hfov_deg=20.0)
     scene = make_scene([glass, black, emitter], mats, cameras=[cam])
-    out = trace_scene(scene, cam, device, W, H, features=ALL_FEATURES)
+    out = trace_variants(scene, cam, device, W, H)
     o, d = camera_rays(cam, W, H)
     on_glass = out.triangle_id < 2
     assert on_glass.all()
@@ -173,7 +173,7 @@ def test_glass_sphere_flips_the_image_behind_it(device: str) -> None:
     blue = quad((-20.0, -20.0, -10.0), (40.0, 0.0, 0.0), (0.0, 20.0, 0.0), 2)
     cam = look_at_camera((0.0, 0.0, 6.0), (0.0, 0.0, 0.0), hfov_deg=30.0)
     scene = make_scene([uv_sphere((0.0, 0.0, 0.0), 1.0, 48, 96, 0), red, blue], mats, cameras=[cam])
-    out = trace_scene(scene, cam, device, W, H, features=ALL_FEATURES)
+    out = trace_variants(scene, cam, device, W, H)
     o, d = camera_rays(cam, W, H)
     # where each camera ray passes the sphere's centre plane z = 0
     p = o + _plane_hit(o, d, np.zeros(3), np.array([0.0, 0.0, 1.0]))[..., None] * d
@@ -203,7 +203,7 @@ def test_depth_limit_falls_back_to_raster_shading(device: str, max_depth: int) -
     b = quad((-30.0, -30.0, 5.0), (0.0, 60.0, 0.0), (60.0, 0.0, 0.0), 1)
     cam = look_at_camera((0.0, 0.0, 0.0), (0.0, 0.0, -1.0), hfov_deg=30.0)
     scene = make_scene([a, b], mats, cameras=[cam])
-    out = trace_scene(scene, cam, device, W, H, settings=TraceSettings(max_depth=max_depth), features=ALL_FEATURES)
+    out = trace_variants(scene, cam, device, W, H, settings=TraceSettings(max_depth=max_depth))
     assert out.counts.reflection == max_depth * W * H
 
 
@@ -227,10 +227,10 @@ def test_mirror_shows_the_floor_with_its_shadows(device: str) -> None:
     light = Light(LightKind.DISTANT, "/sun", (3.0, 3.0, 3.0), direction=(1.0, -0.6, 0.0))
     cam = look_at_camera((0.0, 10.0, 6.0), (0.0, 10.0, 0.0), hfov_deg=30.0)
     virtual = look_at_camera((0.0, 16.0, 0.0), (0.0, 0.0, 0.0), up=(0.0, 0.0, 1.0), hfov_deg=30.0)
-    via_mirror = trace_scene(
-        make_scene(meshes + [mirror], mats, lights=[light]), cam, device, W, H, features=ALL_FEATURES
+    via_mirror = trace_variants(
+        make_scene(meshes + [mirror], mats, lights=[light]), cam, device, W, H
     )
-    direct = trace_scene(make_scene(meshes, mats, lights=[light]), virtual, device, W, H, features=ALL_FEATURES)
+    direct = trace_variants(make_scene(meshes, mats, lights=[light]), virtual, device, W, H)
     assert np.all(via_mirror.triangle_id >= via_mirror.triangle_id.max() - 1), "the view must see only the mirror"
     seen = direct.color[:, ::-1]
     shadowed = direct.visibility[:, ::-1, 0] == 0.0

@@ -8,19 +8,18 @@ import numpy as np
 import warp as wp
 
 from warp_hybrid.parallel import Launcher
-from warp_hybrid.raster.gbuffer import GBuffer
-from warp_hybrid.raster.rasterizer import Rasterizer
-from warp_hybrid.scene.device import DeviceScene, make_camera_gpu
-from warp_hybrid.scene.builders import MeshInput
-from warp_hybrid.scene.model import Camera, Material, Scene, SceneFeatures
+from warp_hybrid.core.gbuffer import GBuffer
+from warp_hybrid.primary import Rasterizer
+from warp_hybrid.core.camera import make_camera_gpu
+from warp_hybrid.scene.device import DeviceScene
+from warp_hybrid.scene.authoring.builders import MeshInput
+from warp_hybrid.core.features import SceneFeatures
+from warp_hybrid.scene.model import Camera, Material, Scene
 from warp_hybrid.timing import StageTimer
 from warp_hybrid.trace import RayCounts, Tracer, TraceSettings
 
-# Every feature on: the scenes of the reflection/refraction tests share this one
-# compiled variant (a superset of what each needs) to keep the suite fast.
-ALL_FEATURES = SceneFeatures(
-    shadows=True, reflections=True, refractions=True, transparency=True, environment=True, emission=True, cutouts=True
-)
+# Every feature on: the variant that can render any scene (one compile for many tests).
+ALL_FEATURES = SceneFeatures.all()
 
 
 @dataclass
@@ -47,24 +46,37 @@ def trace_scene(
     features: SceneFeatures | None = None,
     threads: int = 1,
 ) -> Traced:
-    """Rasterize ``scene`` and trace ``pixels`` (default: all) with a fresh tracer."""
+    """Rasterize ``scene`` and trace ``pixels`` (default: all) with a fresh tracer,
+    compiled for ``features`` (default: the scene's own minimal variant)."""
     ds = DeviceScene(scene, device)
     cam = make_camera_gpu(camera, width, height)
-    gb = GBuffer.allocate(width, height, device)
+    gb = GBuffer(width, height, device)
     lights = max(len(scene.lights), 1)
     listed = np.arange(width * height, dtype=np.int32) if pixels is None else np.asarray(pixels, np.int32)
     with Launcher(device, threads=threads) as launcher:
         Rasterizer(launcher).render(ds, cam, gb, StageTimer())
-        tracer = Tracer(launcher, features or ds.features, settings or TraceSettings())
+        tracer = Tracer(launcher, settings or TraceSettings(), features)
         color = wp.zeros((height, width), dtype=wp.vec3, device=device)
         vis = wp.full((height, width, lights), value=float("nan"), dtype=wp.float32, device=device)
         timer = StageTimer()
         counts = tracer.trace(
             ds, cam, gb, wp.array(listed, dtype=wp.int32, device=device), len(listed), color, vis, timer
-        )
+        ).read()
     return Traced(
         color.numpy(), vis.numpy(), gb.triangle_id.numpy(), gb.position.numpy(), counts, timer.stages_ms, tracer
     )
+
+
+def trace_variants(scene: Scene, camera: Camera, device: str, *args, **kwargs) -> Traced:
+    """``trace_scene`` twice, with the scene's minimal tracer variant and with every
+    feature compiled in; asserts both give the same image and visibility (code a scene
+    does not need must not change its result) and returns the minimal variant's run."""
+    minimal = trace_scene(scene, camera, device, *args, **kwargs)
+    everything = trace_scene(scene, camera, device, *args, features=ALL_FEATURES, **kwargs)
+    np.testing.assert_array_equal(minimal.color, everything.color)
+    np.testing.assert_array_equal(minimal.visibility, everything.visibility)
+    assert minimal.counts == everything.counts
+    return minimal
 
 
 def camera_rays(camera: Camera, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:

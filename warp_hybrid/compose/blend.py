@@ -5,12 +5,16 @@ Per pixel ``out = raster + weight * (traced - raster)``, selecting instead of
 interpolating at the ends: exactly ``raster`` where ``weight <= 0`` (so whatever the
 traced buffer holds outside the window, NaN included, never leaks in) and exactly
 ``traced`` where ``weight >= 1``.  ``out`` may be ``raster`` (blend in place).
+
+The kernel follows ``Launcher.launch_pixels`` (last inputs ``row0, row_step, cols``):
+one launch item per row on the CPU, one thread per pixel on CUDA.
 """
 
 from __future__ import annotations
 
 import warp as wp
 
+from ..core.passes import FrameContext, RenderPass
 from ..parallel import Launcher
 from ..timing import StageTimer
 
@@ -25,26 +29,35 @@ def blend_pixels(
     out: wp.array2d(dtype=wp.vec3),
     row0: int,
     row_step: int,
+    cols: int,
 ):
     """``out = lerp(raster, traced, weight)`` with exact ends."""
-    r, x = wp.tid()
+    r, c = wp.tid()
     y = row0 + r * row_step
-    w = weight[y, x]
-    base = raster[y, x]
-    if w <= 0.0:
-        out[y, x] = base
-    elif w >= 1.0:
-        out[y, x] = traced[y, x]
-    else:
-        out[y, x] = base + w * (traced[y, x] - base)
+    for x in range(c * cols, wp.min(c * cols + cols, out.shape[1])):
+        w = weight[y, x]
+        base = raster[y, x]
+        if w <= 0.0:
+            out[y, x] = base
+        elif w >= 1.0:
+            out[y, x] = traced[y, x]
+        else:
+            out[y, x] = base + w * (traced[y, x] - base)
 
 
-class Compositor:
-    """Blends a traced layer over the raster image."""
+class Compositor(RenderPass):
+    """Blends a traced layer over the raster image (the "compose" pass)."""
 
     def __init__(self, launcher: Launcher) -> None:
         """Launch the blend through ``launcher`` (rows split across its threads)."""
         self.launcher = launcher
+
+    def execute(self, frame: FrameContext) -> None:
+        """Blend ``frame``'s traced layer over its raster layer by the focus region's
+        weights into the frame's colour."""
+        assert frame.region is not None, "the focus pass runs first"
+        b = frame.buffers
+        self.blend(b.raster_color, b.traced_color, frame.region.weight, b.color, frame.timer)
 
     def blend(self, raster: wp.array, traced: wp.array, weight: wp.array, out: wp.array, timer: StageTimer) -> None:
         """Write ``raster + weight * (traced - raster)`` into ``out`` (stage ``"compose"``).
@@ -59,4 +72,4 @@ class Compositor:
                 raise ValueError(f"{name} has shape {tuple(array.shape)}, expected {shape} like raster")
         h, w = shape
         with timer.stage("compose"):
-            self.launcher.launch_rows(blend_pixels, h, w, [raster, traced, weight, out])
+            self.launcher.launch_pixels(blend_pixels, h, w, [raster, traced, weight, out])

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 import warp as wp
 
+from ..core.passes import FrameContext, RenderPass
 from ..parallel import Launcher
 from ..timing import StageTimer
 from .kernels import SHAPE_CIRCLE, SHAPE_FULL, SHAPE_RECT, FocusGPU, focus_rows
@@ -65,18 +66,26 @@ def focus_params(layout: WindowLayout) -> FocusGPU:
     return p
 
 
-class FocusRegionBuilder:
-    """Builds ``FocusRegion``s for one screen size, reusing its device buffers."""
+class FocusRegionBuilder(RenderPass):
+    """Builds ``FocusRegion``s for one screen size, reusing its device buffers (the
+    "focus" pass: the frame's window, or every pixel when the frame has none)."""
 
     def __init__(self, launcher: Launcher, width: int, height: int) -> None:
-        """Allocate the pixel list (W*H int32), weight (H, W) and row-run buffers on the
-        launcher's device."""
+        """Allocate the buffers for ``width`` x ``height`` on the launcher's device."""
+        self.launcher = launcher
+        self.resize(width, height)
+
+    def execute(self, frame: FrameContext) -> None:
+        """Set ``frame.region``: the frame's window, or the full screen without one."""
+        frame.region = self.full_screen() if frame.window is None else self.build(frame.window, frame.timer)
+
+    def resize(self, width: int, height: int) -> None:
+        """Allocate the pixel list (W*H int32), weight (H, W) and row-run buffers."""
         if width <= 0 or height <= 0:
             raise ValueError(f"screen size must be positive, got {width}x{height}")
-        self.launcher = launcher
         self.width = width
         self.height = height
-        device = launcher.device
+        device = self.launcher.device
         self._pixels = wp.empty(width * height, dtype=wp.int32, device=device)
         self._weight = wp.zeros((height, width), dtype=wp.float32, device=device)
         # Rows 0-2: first covered column, end column, offset of the row's run in the list;

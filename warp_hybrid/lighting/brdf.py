@@ -31,20 +31,12 @@ refraction.
 
 from __future__ import annotations
 
-import math
 
 import warp as wp
 
-ALPHA_MIN = wp.constant(1.0e-3)
-PI = wp.constant(math.pi)
-INV_PI = wp.constant(1.0 / math.pi)
+from ..core.constants import ALPHA_MIN, INV_PI, PI, luma709
+
 COS_EPS = wp.constant(1.0e-4)
-
-
-@wp.func(inline=True)
-def luma709(c: wp.vec3) -> float:
-    """Rec. 709 luminance of a linear colour."""
-    return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
 
 
 @wp.func(inline=True)

@@ -48,13 +48,13 @@ import math
 
 import warp as wp
 
-from ..scene.device import LightGPU
+from ..core.constants import PI
+from ..core.scene_gpu import LightGPU
 from ..scene.model import LightKind
 
 KIND_DISTANT = wp.constant(int(LightKind.DISTANT))
 KIND_SPHERE = wp.constant(int(LightKind.SPHERE))
 KIND_RECT = wp.constant(int(LightKind.RECT))
-PI = wp.constant(math.pi)
 INFINITY = wp.constant(math.inf)
 
 

@@ -35,9 +35,9 @@ from __future__ import annotations
 
 import warp as wp
 
-from ..scene.device import FLAG_TRANSMISSIVE, SceneGPU
-from ..scene.environment import environment_radiance
-from .ambient import AmbientGPU, ambient_diffuse, ambient_specular
+from ..core.scene_gpu import FLAG_TRANSMISSIVE, AmbientGPU, SceneGPU
+from ..scene.device.environment import environment_radiance
+from .ambient import ambient_diffuse, ambient_specular
 from .brdf import COS_EPS, brdf_diffuse, brdf_specular, fresnel_dielectric
 from .lights import LightSample, light_sample
 

@@ -1,7 +1,8 @@
 """Colour conversions shared by the loader (texture decode) and the output stage.
 
 The sRGB transfer functions (IEC 61966-2-1) as host numpy functions, the kernels'
-exact 8-bit encoder (a table lookup, no ``pow``), and luminance weights.  Colours are linear everywhere inside the
+exact 8-bit encoder (a table lookup, no ``pow``), and the host Rec. 709 luminance
+(weights ``core.constants.LUMA_709``).  Colours are linear everywhere inside the
 renderer; sRGB only appears in 8-bit images (textures in, PNGs out).
 
 Encode (OETF), linear ``x`` in [0, 1] -> sRGB ``s``:
@@ -14,8 +15,7 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
-# Rec. 709 / sRGB luminance of linear RGB.
-LUMA_709 = (0.2126, 0.7152, 0.0722)
+from ..core.constants import LUMA_709
 
 
 def srgb_encode(linear: np.ndarray) -> np.ndarray:

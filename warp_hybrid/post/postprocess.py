@@ -1,32 +1,64 @@
-"""The output stage: exposure, tone mapping, sRGB encoding and FXAA -> 8-bit image."""
+"""The output stage: exposure, tone mapping, sRGB encoding and FXAA -> 8-bit image.
+
+Every pass runs on the device (``Launcher.launch_pixels``; the exposure kernels one
+thread each), and the frame's exposure stays in device memory between them: nothing
+is read back before the finished image.
+"""
 
 from __future__ import annotations
 
 import numpy as np
 import warp as wp
 
+from ..core.passes import FrameContext, RenderPass
 from ..parallel import Launcher
 from ..timing import StageTimer
 from .aa import luma_table
 from .color import make_srgb8_encoder
-from .exposure import ev_from_log_sum
-from .kernels import LOG_LUMINANCE_KERNELS, MASK_BOOL, MASK_ID, MASK_NONE, TONEMAP_KERNELS, fxaa_rows
+from .exposure import Exposure
+from .kernels import (
+    LOG_LUMINANCE_KERNELS,
+    MASK_BOOL,
+    MASK_ID,
+    MASK_NONE,
+    TONEMAP_KERNELS,
+    exposure_from_rows,
+    fixed_exposure,
+    fxaa_pixels,
+)
 from .tonemap import OPERATORS
 
 TONEMAPS = tuple(OPERATORS)
 
 
-class PostProcess:
+class PostProcess(RenderPass):
     """Linear HDR colour in, uint8 sRGB (H, W, 3) out (stages "tonemap" and "aa")."""
 
-    def __init__(self, launcher: Launcher) -> None:
-        """Run on ``launcher``'s device, rows split across its threads."""
+    def __init__(
+        self, launcher: Launcher, exposure_ev: float | None = None, tonemap: str = "aces", antialias: bool = True
+    ) -> None:
+        """Run on ``launcher``'s device, rows split across its threads; the other
+        arguments are what ``execute`` applies (see ``run``)."""
         self.launcher = launcher
-        self.last_exposure_ev = 0.0
+        self.exposure_ev = exposure_ev
+        self.tonemap = tonemap
+        self.antialias = antialias
         self._buffers: dict[str, wp.array] = {}
         self._encoder = make_srgb8_encoder(launcher.device)
         self._luma_lut = wp.array(luma_table(), dtype=wp.vec3, device=launcher.device)
-        launcher.ensure_loaded(fxaa_rows)  # compiles the post module (all its kernels) up front
+        self._exposure = wp.zeros(1, dtype=Exposure, device=launcher.device)  # EV 0 until a frame runs
+        launcher.ensure_loaded(fxaa_pixels)  # compiles the post module (all its kernels) up front
+
+    @property
+    def exposure(self) -> wp.array:
+        """The last frame's exposure on the device: a 1-element ``Exposure`` array."""
+        return self._exposure
+
+    @property
+    def last_exposure_ev(self) -> float:
+        """The EV of the last frame (0 before any), read from the device: this waits
+        for the frame's exposure, so read it after the frame (with its image)."""
+        return float(self._exposure.numpy()[0]["ev"])
 
     def _targets(self, height: int, width: int) -> dict[str, wp.array]:
         if not self._buffers or tuple(self._buffers["ldr"].shape) != (height, width, 3):
@@ -56,16 +88,37 @@ class PostProcess:
         mask = np.ascontiguousarray(hit_mask, dtype=bool)
         return MASK_BOOL, wp.array(mask, dtype=wp.bool, device=self.launcher.device)
 
-    def auto_exposure(self, color: wp.array, hit_mask: np.ndarray | wp.array | None) -> float:
-        """The automatic EV (key 0.18 over the log-average luminance of ``hit_mask``'s
-        pixels, or of all non-black pixels), reduced on the device per row."""
+    def auto_exposure(self, color: wp.array, hit_mask: np.ndarray | wp.array | None) -> None:
+        """Set ``exposure`` to the automatic EV (key 0.18 over the log-average luminance
+        of ``hit_mask``'s pixels, or of all non-black pixels), all on the device: the
+        logs summed per row, then the rows and the EV in one thread.  Nothing is
+        read back (``last_exposure_ev`` does that)."""
         h, w = int(color.shape[0]), int(color.shape[1])
         buffers = self._targets(h, w)
         kind, mask = self._mask(hit_mask, (h, w))
-        self.launcher.launch_items(
-            LOG_LUMINANCE_KERNELS[kind], h, [color, mask, buffers["row_sum"], buffers["row_count"]]
+        buffers["row_sum"].zero_()
+        buffers["row_count"].zero_()
+        self.launcher.launch_pixels(
+            LOG_LUMINANCE_KERNELS[kind], h, w, [color, mask, buffers["row_sum"], buffers["row_count"]]
         )
-        return ev_from_log_sum(float(buffers["row_sum"].numpy().sum()), int(buffers["row_count"].numpy().sum()))
+        wp.launch(
+            exposure_from_rows,
+            dim=1,
+            inputs=[buffers["row_sum"], buffers["row_count"], 2.0, self._exposure],
+            device=self.launcher.device,
+        )
+
+    def set_exposure(self, ev: float) -> None:
+        """Set ``exposure`` to the fixed ``ev`` (scale ``2**ev`` from the host)."""
+        ev = float(ev)
+        wp.launch(fixed_exposure, dim=1, inputs=[ev, 2.0**ev, self._exposure], device=self.launcher.device)
+
+    def execute(self, frame: FrameContext) -> None:
+        """Post-process ``frame``'s colour into ``frame.image`` (a device array), the
+        automatic exposure keyed to the G-buffer's hit pixels."""
+        frame.image = self.process(
+            frame.buffers.color, self.exposure_ev, self.tonemap, self.antialias, frame.timer, frame.gbuffer.triangle_id
+        )
 
     def run(
         self,
@@ -76,25 +129,40 @@ class PostProcess:
         timer: StageTimer,
         hit_mask: np.ndarray | wp.array | None = None,
     ) -> np.ndarray:
+        """``process``, then a host copy of the uint8 (H, W, 3) image."""
+        return np.array(self.process(color, exposure_ev, tonemap, aa, timer, hit_mask).numpy(), copy=True)
+
+    def process(
+        self,
+        color: wp.array,
+        exposure_ev: float | None,
+        tonemap: str,
+        aa: bool,
+        timer: StageTimer,
+        hit_mask: np.ndarray | wp.array | None = None,
+    ) -> wp.array:
         """Expose ``color`` ((H, W) vec3, linear) by ``2**exposure_ev`` (None: automatic,
         key 0.18 over the log-average luminance of ``hit_mask``'s pixels, or of all
         non-black pixels), tone map with ``tonemap`` (one of ``TONEMAPS``), encode to
-        sRGB, anti-alias with FXAA when ``aa``; return the uint8 (H, W, 3) image.
+        sRGB, anti-alias with FXAA when ``aa``; return the uint8 (H, W, 3) image on the
+        device (a buffer reused by the next call).
         ``hit_mask`` (H, W): a numpy bool array, or a Warp array on the device, bool or
         int32 ids (hit where >= 0, e.g. the G-buffer's ``triangle_id``).
-        The EV used is kept in ``last_exposure_ev``."""
+        The EV used stays on the device (``exposure``; ``last_exposure_ev`` reads it)."""
         if tonemap not in TONEMAPS:
             raise ValueError(f"unknown tone mapping {tonemap!r}; choose one of {', '.join(TONEMAPS)}")
         h, w = int(color.shape[0]), int(color.shape[1])
         buffers = self._targets(h, w)
         with timer.stage("tonemap"):
-            ev = float(exposure_ev) if exposure_ev is not None else self.auto_exposure(color, hit_mask)
-            self.last_exposure_ev = ev
-            inputs = [color, 2.0**ev, self._encoder, buffers["ldr"], self._luma_lut, buffers["luma"]]
-            self.launcher.launch_items(TONEMAP_KERNELS[(tonemap, aa)], h, inputs)
+            if exposure_ev is None:
+                self.auto_exposure(color, hit_mask)
+            else:
+                self.set_exposure(exposure_ev)
+            inputs = [color, self._exposure, self._encoder, buffers["ldr"], self._luma_lut, buffers["luma"]]
+            self.launcher.launch_pixels(TONEMAP_KERNELS[(tonemap, aa)], h, w, inputs)
         if not aa:
-            return np.array(buffers["ldr"].numpy(), copy=True)
+            return buffers["ldr"]
         with timer.stage("aa"):
             wp.copy(buffers["smoothed"], buffers["ldr"])
-            self.launcher.launch_items(fxaa_rows, h, [buffers["ldr"], buffers["luma"], buffers["smoothed"]])
-        return np.array(buffers["smoothed"].numpy(), copy=True)
+            self.launcher.launch_pixels(fxaa_pixels, h, w, [buffers["ldr"], buffers["luma"], buffers["smoothed"]])
+        return buffers["smoothed"]

@@ -2,7 +2,7 @@
 
 Everything here is plain numpy in world space, already flattened (instances and
 transforms baked at one time code), so stages never touch pxr.  Arrays use float32
-for geometry and linear colours.  ``DeviceScene`` (``scene/device.py``) uploads a
+for geometry and linear colours.  ``DeviceScene`` (``scene/device/upload.py``) uploads a
 ``Scene`` to Warp arrays once and refits its BVH when animated points move.
 
 Conventions (see the README): right-handed world, cameras look down their local -Z,
@@ -15,6 +15,8 @@ import enum
 from dataclasses import dataclass, field
 
 import numpy as np
+
+from ..core.constants import SMOOTH_ROUGHNESS
 
 
 class LightKind(enum.IntEnum):
@@ -121,7 +123,17 @@ class Material:
     @property
     def is_reflective(self) -> bool:
         """Worth a reflection ray: metals, mirrors and smooth dielectrics."""
-        return self.metallic > 0.0 or self.roughness < 0.35 or self.is_transmissive
+        return self.metallic > 0.0 or self.roughness < SMOOTH_ROUGHNESS or self.is_transmissive
+
+    @property
+    def is_emissive(self) -> bool:
+        """Emits light (a constant colour or a texture)."""
+        return max(self.emissive) > 0.0 or self.emissive_texture >= 0
+
+    def texture_slots(self) -> tuple[int, ...]:
+        """Every texture slot (an index into ``Scene.textures`` or -1)."""
+        return (self.diffuse_texture, self.emissive_texture, self.roughness_texture, self.metallic_texture,
+                self.opacity_texture)
 
 
 @dataclass
@@ -207,24 +219,6 @@ class Camera:
     def world_to_cam(self) -> np.ndarray:
         """Inverse of ``cam_to_world``."""
         return np.linalg.inv(self.cam_to_world)
-
-
-@dataclass
-class SceneFeatures:
-    """Which effects a scene needs; decides which passes are compiled and launched."""
-
-    shadows: bool = False
-    reflections: bool = False
-    refractions: bool = False
-    transparency: bool = False
-    environment: bool = False
-    emission: bool = False
-    cutouts: bool = False
-    textures: bool = False
-
-    def names(self) -> list[str]:
-        """The effects that are on, in a stable order."""
-        return [k for k, v in self.__dict__.items() if v]
 
 
 @dataclass

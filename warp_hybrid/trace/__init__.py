@@ -1,7 +1,9 @@
-"""Ray tracing of the secondary effects (shadows, reflections, refractions) for a
-list of pixels: ``Tracer`` with its ``TraceSettings`` and ``RayCounts``."""
+"""Secondary rays with Warp's mesh BVH: shadows (``shadows``), what surfaces do to rays
+(``optics``), the reflection/refraction path (``path``), shared ray helpers (``rays``,
+``offset``), the shadow BVHs (``occluders``), the compiled variant (``variant``) and the
+pass that launches them (``tracer``)."""
 
-from .kernels import TraceVariant
-from .tracer import RayCounts, Tracer, TraceSettings, trace_variant
+from .tracer import PendingRayCounts, RayCounts, Tracer, TraceSettings
+from .variant import TraceVariant
 
-__all__ = ["RayCounts", "TraceSettings", "TraceVariant", "Tracer", "trace_variant"]
+__all__ = ["PendingRayCounts", "RayCounts", "TraceSettings", "TraceVariant", "Tracer"]

@@ -24,14 +24,23 @@ import warp as wp
 
 from ..scene.device import DeviceScene
 from ..scene.model import Material
-from .kernels import OccluderGPU
 from .offset import scene_scale
+
+@wp.struct
+class OccluderGPU:
+    """The shadow BVHs (below): opaque triangles (any-hit) and the
+    transmissive/cut-out/emissive ones (ordered walk), ``special_faces`` mapping the
+    latter's faces to scene triangle ids; an id of 0 means empty."""
+
+    opaque: wp.uint64
+    special: wp.uint64
+    special_faces: wp.array(dtype=wp.int32)
 
 
 def lets_light_through(m: Material) -> bool:
     """Shadow rays must look at this material's surfaces one by one (it is transmissive,
     alpha-tested or emissive; emitters do not cast shadows)."""
-    return m.is_transmissive or m.is_cutout or max(m.emissive) > 0.0 or m.emissive_texture >= 0
+    return m.is_transmissive or m.is_cutout or m.is_emissive
 
 
 class Occluders:
@@ -41,8 +50,9 @@ class Occluders:
     def __init__(self, scene: DeviceScene) -> None:
         """Split ``scene``'s triangles by material and build the BVHs (once)."""
         self.scene = scene
-        self._gpu_seen = scene.gpu
+        self._geometry_version = scene.geometry_version
         self.scale = scene_scale(scene.scene.bounds)
+        self._materials = scene.scene.materials
         special_mat = np.array([lets_light_through(m) for m in scene.scene.materials] or [False], dtype=bool)
         tri_mat = np.asarray(scene.scene.triangle_material, dtype=np.int64)
         special = special_mat[tri_mat] if len(tri_mat) else np.zeros(0, dtype=bool)
@@ -72,11 +82,16 @@ class Occluders:
         self._meshes.append(mesh)
         return int(mesh.id)
 
+    def matches(self, scene: DeviceScene) -> bool:
+        """Whether these BVHs split ``scene``'s triangles as its materials do now (a
+        material update can move triangles between the two meshes)."""
+        return scene is self.scene and self._materials is scene.scene.materials
+
     def refresh(self) -> None:
         """Refit the BVHs (and update ``scale``) if the scene's points moved since the
-        last call."""
-        if self.scene.gpu is not self._gpu_seen:
+        last call (``DeviceScene.geometry_version``)."""
+        if self.scene.geometry_version != self._geometry_version:
             for mesh in self._meshes:
                 mesh.refit()
             self.scale = scene_scale(self.scene.scene.bounds)
-            self._gpu_seen = self.scene.gpu
+            self._geometry_version = self.scene.geometry_version

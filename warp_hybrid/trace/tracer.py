@@ -10,8 +10,11 @@ split between the launcher's threads:
 * "trace_secondary": shading of the primary point plus the reflection/refraction path
   with the shadow rays of its secondary hits.
 
-Which kernel variant runs follows the scene's features (``TraceVariant``); see
-``trace/kernels.py`` for the rules.
+Which kernel variant runs follows the scene's features (``variant.TraceVariant``):
+the smallest one that covers the scene, re-chosen when a scene update changes the
+features, unless the tracer was built for fixed features.  The ray counts stay on the
+device until the caller reads them after the frame (``PendingRayCounts.read``), so a
+frame on CUDA has no host sync inside it.
 """
 
 from __future__ import annotations
@@ -21,20 +24,19 @@ from dataclasses import dataclass
 import numpy as np
 import warp as wp
 
+from ..core.camera import CameraGPU
+from ..core.features import SceneFeatures
+from ..core.gbuffer import GBuffer
+from ..core.passes import FrameContext, RenderPass
 from ..errors import RenderSettingsError
-from ..lighting.ambient import EnvironmentLighting
 from ..parallel import Launcher
-from ..raster.gbuffer import GBuffer
-from ..raster.kernels import gbuffer_arrays
-from ..scene.device import CameraGPU, DeviceScene
-from ..scene.model import SceneFeatures
+from ..scene.device import DeviceScene
 from ..timing import StageTimer
-from . import kernels
 from .occluders import Occluders
-
-
-# The SceneFeatures flags that select kernel code (textures need none).
-TRACED_FEATURES = ("shadows", "reflections", "refractions", "transparency", "environment", "emission", "cutouts")
+from .path import COUNT_COLUMNS, MAX_DEPTH, path_kernel
+from .rays import TraceParams
+from .shadows import shadow_kernel
+from .variant import TraceVariant
 
 
 @dataclass
@@ -53,8 +55,8 @@ class TraceSettings:
 
     def validate(self) -> None:
         """Raise ``RenderSettingsError`` for values the kernels cannot honour."""
-        if not 0 <= self.max_depth <= kernels.MAX_DEPTH:
-            raise RenderSettingsError(f"max depth must be in 0..{kernels.MAX_DEPTH}, got {self.max_depth}")
+        if not 0 <= self.max_depth <= MAX_DEPTH:
+            raise RenderSettingsError(f"max depth must be in 0..{MAX_DEPTH}, got {self.max_depth}")
         if self.shadow_samples < 1:
             raise RenderSettingsError(f"shadow samples must be >= 1, got {self.shadow_samples}")
 
@@ -79,44 +81,87 @@ class RayCounts:
         }
 
 
-def trace_variant(features: SceneFeatures, settings: TraceSettings) -> kernels.TraceVariant:
-    """The kernel flags for a scene with these features traced with these settings."""
-    transparency = features.transparency or features.refractions
-    return kernels.TraceVariant(
-        shadows=features.shadows,
-        layered_shadows=transparency or features.cutouts or features.emission,
-        soft_shadows=settings.shadow_samples > 1,
-        reflections=features.reflections or transparency,
-        transparency=transparency,
-        refractions=features.refractions,
-        environment=features.environment,
-        cutouts=features.cutouts,
-    )
+@dataclass
+class PendingRayCounts:
+    """The per-item ray counts of one ``trace`` call, still on the device."""
+
+    counts: wp.array | None
+    items: int
+
+    def read(self) -> RayCounts:
+        """Copy the counts to the host (a device sync) and total them."""
+        if self.counts is None or self.items == 0:
+            return RayCounts(0, 0, 0, 0)
+        totals = self.counts.numpy()[: self.items].sum(axis=0, dtype=np.int64)
+        return RayCounts(
+            traced_pixels=int(self.items),
+            shadow=int(totals[0] + totals[1]),
+            reflection=int(totals[2]),
+            refraction=int(totals[3]),
+        )
 
 
-class Tracer:
+class Tracer(RenderPass):
     """Traces the secondary effects of a list of pixels (see the module docstring)."""
 
-    def __init__(self, launcher: Launcher, features: SceneFeatures, settings: TraceSettings) -> None:
-        """Pick (and compile, once per process) the kernel variants ``features`` need."""
+    def __init__(self, launcher: Launcher, settings: TraceSettings, features: SceneFeatures | None = None) -> None:
+        """Trace on ``launcher``; ``features`` fixes the compiled variant (e.g.
+        ``SceneFeatures.all()``), None picks the smallest one for each scene set."""
         settings.validate()
         self.launcher = launcher
-        self.features = features
         self.settings = settings
-        self.variant = trace_variant(features, settings)
-        self.shadow_kernel = kernels.shadow_kernel(*self.variant.shadow_key()) if self.variant.shadows else None
-        self.shade_kernel = kernels.shade_kernel(self.variant)
-        if self.shadow_kernel is not None:
-            launcher.ensure_loaded(self.shadow_kernel)
-        launcher.ensure_loaded(self.shade_kernel)
+        self.fixed_features = features
+        self.variant: TraceVariant | None = None
+        if features is not None:
+            self._use_variant(TraceVariant.for_scene(features, settings.shadow_samples))
         self._transmittance: wp.array | None = None
         self._counts: wp.array | None = None
         self._occluders: Occluders | None = None
 
+    def _use_variant(self, variant: TraceVariant) -> None:
+        """Compile (once per process) and load the kernels of ``variant``."""
+        if variant == self.variant:
+            return
+        self.variant = variant
+        self.shadow_kernel = shadow_kernel(*variant.shadow_key()) if variant.shadows else None
+        self.path_kernel = path_kernel(variant)
+        if self.shadow_kernel is not None:
+            self.launcher.ensure_loaded(self.shadow_kernel)
+        self.launcher.ensure_loaded(self.path_kernel)
+
+    def execute(self, frame: FrameContext) -> None:
+        """Trace ``frame.region`` into the frame's traced layer and visibility AOV (NaN
+        outside the region); the ray counts go to ``frame.rays``."""
+        assert self.scene is not None and frame.region is not None, "set_scene and a focus region first"
+        b = frame.buffers
+        b.visibility.fill_(float("nan"))
+        region = frame.region
+        frame.rays = self.trace(
+            self.scene, frame.camera, b.gbuffer, region.pixels, region.count, b.traced_color, b.visibility, frame.timer
+        )
+
+    def set_scene(self, scene: DeviceScene) -> None:
+        """Make the tracer ready for ``scene`` (after an update too): a variant that
+        covers its features, and its shadow BVHs.  Raises ``ValueError`` when the tracer
+        was built for fixed features the scene exceeds."""
+        if self.fixed_features is None:
+            needed = TraceVariant.for_scene(scene.features, self.settings.shadow_samples)
+            if self.variant is None or not self.variant.covers(scene.features):
+                self._use_variant(needed)
+        else:
+            missing = scene.features.missing_from(self.fixed_features)
+            if missing:
+                raise ValueError(
+                    f"{scene.scene.path}: the tracer was built without {', '.join(missing)}, which the scene needs"
+                )
+        if self._occluders is not None and not self._occluders.matches(scene):
+            self._occluders = None
+        self.scene = scene
+
     def _occluders_for(self, scene: DeviceScene, timer: StageTimer) -> Occluders:
         """The shadow BVHs of ``scene``: built on first use (stage "trace_setup"),
         refitted when its points moved."""
-        if self._occluders is None or self._occluders.scene is not scene:
+        if self._occluders is None or not self._occluders.matches(scene):
             with timer.stage("trace_setup"):
                 self._occluders = Occluders(scene)
         else:
@@ -134,26 +179,16 @@ class Tracer:
         ):
             self._transmittance = wp.empty(shape_t, dtype=wp.vec3, device=dev)
         if self._counts is None or self._counts.shape[0] < shape_t[0]:
-            self._counts = wp.empty((shape_t[0], kernels.COUNT_COLUMNS), dtype=wp.int32, device=dev)
+            self._counts = wp.empty((shape_t[0], COUNT_COLUMNS), dtype=wp.int32, device=dev)
         return self._transmittance, self._counts
 
-    def _params(self, occluders: Occluders) -> kernels.TraceParams:
-        p = kernels.TraceParams()
+    def _params(self, occluders: Occluders) -> TraceParams:
+        p = TraceParams()
         p.scale = occluders.scale
         p.max_depth = self.settings.max_depth
         p.shadow_samples = self.settings.shadow_samples
         p.seed = self.settings.seed
         return p
-
-    def _check_features(self, scene: DeviceScene) -> None:
-        """The compiled variant must cover every effect the scene needs."""
-        missing = [
-            name for name in scene.features.names() if name in TRACED_FEATURES and not getattr(self.features, name)
-        ]
-        if missing:
-            raise ValueError(
-                f"{scene.scene.path}: the tracer was built without {', '.join(missing)}, which the scene needs"
-            )
 
     @staticmethod
     def _check(
@@ -185,7 +220,7 @@ class Tracer:
         color_out: wp.array,
         visibility_out: wp.array,
         timer: StageTimer,
-    ) -> RayCounts:
+    ) -> PendingRayCounts:
         """Trace the first ``count`` pixels of ``pixels`` (int32 flat indices row * W + col).
 
         Writes ``color_out[y, x]`` (traced linear radiance) for each listed pixel and,
@@ -194,19 +229,19 @@ class Tracer:
         point at all); other pixels, and list entries outside the image, are
         untouched.  Stages "trace_shadow" and "trace_secondary" go to ``timer`` (and
         "trace_setup" when the shadow BVHs are built, on the first call for a scene).
-        Raises ``ValueError`` on mismatched shapes or a scene needing effects the
-        tracer was not built for."""
+        Returns the ray counts, still on the device.  Raises ``ValueError`` on
+        mismatched shapes or a scene needing effects the tracer was not built for."""
+        self.set_scene(scene)
         lights = scene.gpu.light_count
-        self._check_features(scene)
         self._check(gbuffer, camera, pixels, count, color_out, visibility_out, lights)
         if count == 0:
-            return RayCounts(0, 0, 0, 0)
+            return PendingRayCounts(None, 0)
         transmittance, counts = self._scratch(count, lights)
         counts.zero_()
         occluders = self._occluders_for(scene, timer)
         params = self._params(occluders)
         occ = occluders.gpu
-        gb = gbuffer_arrays(gbuffer)
+        gb = gbuffer.kernel_arrays()
         with timer.stage("trace_shadow"):
             if self.shadow_kernel is not None and lights > 0:
                 self.launcher.launch_items(
@@ -214,17 +249,10 @@ class Tracer:
                     count,
                     [scene.gpu, camera, params, occ, gb, pixels, transmittance, visibility_out, counts],
                 )
-        ambient = EnvironmentLighting.for_scene(scene)
         with timer.stage("trace_secondary"):
             self.launcher.launch_items(
-                self.shade_kernel,
+                self.path_kernel,
                 count,
-                [scene.gpu, ambient.gpu, camera, params, occ, gb, pixels, transmittance, color_out, counts],
+                [scene.gpu, scene.ambient, camera, params, occ, gb, pixels, transmittance, color_out, counts],
             )
-        totals = counts.numpy()[:count].sum(axis=0, dtype=np.int64)
-        return RayCounts(
-            traced_pixels=int(count),
-            shadow=int(totals[0] + totals[1]),
-            reflection=int(totals[2]),
-            refraction=int(totals[3]),
-        )
+        return PendingRayCounts(counts, count)

@@ -1,0 +1,93 @@
+"""Small helpers for the USD loader tests: build tiny stages with pxr in tmp_path."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade
+
+from warp_hybrid.scene.model import Scene
+from warp_hybrid.scene.usd.loader import load_scene
+
+
+def new_stage(
+    tmp_path: Path, name: str = "scene.usda", up_axis: str = "Y", meters_per_unit: float = 1.0
+) -> tuple[Usd.Stage, Path]:
+    """A new stage file in ``tmp_path`` with a /World default prim."""
+    path = tmp_path / name
+    stage = Usd.Stage.CreateNew(str(path))
+    UsdGeom.SetStageUpAxis(stage, up_axis)
+    UsdGeom.SetStageMetersPerUnit(stage, meters_per_unit)
+    world = UsdGeom.Xform.Define(stage, "/World")
+    stage.SetDefaultPrim(world.GetPrim())
+    return stage, path
+
+
+def add_mesh(
+    stage: Usd.Stage,
+    path: str,
+    points,
+    counts,
+    indices,
+    subdivision: str = "none",
+    **attrs,
+) -> UsdGeom.Mesh:
+    """A UsdGeom.Mesh with the given polygons (``subdivisionScheme`` none by default)."""
+    mesh = UsdGeom.Mesh.Define(stage, path)
+    mesh.CreatePointsAttr([Gf.Vec3f(*map(float, p)) for p in points])
+    mesh.CreateFaceVertexCountsAttr([int(c) for c in counts])
+    mesh.CreateFaceVertexIndicesAttr([int(i) for i in indices])
+    if subdivision is not None:
+        mesh.CreateSubdivisionSchemeAttr(subdivision)
+    for name, value in attrs.items():
+        getattr(mesh, f"Create{name}Attr")(value)
+    return mesh
+
+
+def unit_quad(stage: Usd.Stage, path: str, z: float = 0.0, size: float = 1.0) -> UsdGeom.Mesh:
+    """A counter-clockwise quad in the XY plane (facing +Z) from (0,0) to (size,size)."""
+    s = size
+    return add_mesh(stage, path, [(0, 0, z), (s, 0, z), (s, s, z), (0, s, z)], [4], [0, 1, 2, 3])
+
+
+def preview_material(stage: Usd.Stage, path: str, **inputs) -> tuple[UsdShade.Material, UsdShade.Shader]:
+    """A material with a UsdPreviewSurface; ``inputs`` are constant values
+    (tuples of 3 become color3f, ints int, floats float)."""
+    mat = UsdShade.Material.Define(stage, path)
+    shader = UsdShade.Shader.Define(stage, f"{path}/Surface")
+    shader.CreateIdAttr("UsdPreviewSurface")
+    mat.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), "surface")
+    for name, value in inputs.items():
+        if isinstance(value, tuple):
+            shader.CreateInput(name, Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*value))
+        elif isinstance(value, int) and not isinstance(value, bool):
+            shader.CreateInput(name, Sdf.ValueTypeNames.Int).Set(value)
+        else:
+            shader.CreateInput(name, Sdf.ValueTypeNames.Float).Set(float(value))
+    return mat, shader
+
+
+def bind(prim: Usd.Prim | UsdGeom.Imageable, material: UsdShade.Material) -> None:
+    """Apply MaterialBindingAPI and bind ``material`` to ``prim``."""
+    p = prim.GetPrim() if hasattr(prim, "GetPrim") else prim
+    UsdShade.MaterialBindingAPI.Apply(p).Bind(material)
+
+
+def save_and_load(stage: Usd.Stage, path: Path, time: float | None = None) -> Scene:
+    """Save the stage and load it with the loader under test."""
+    stage.GetRootLayer().Save()
+    return load_scene(path, time)
+
+
+def triangle_normals(scene: Scene) -> np.ndarray:
+    """Unit geometric normals (T, 3) of the scene's triangles (counter-clockwise)."""
+    p = scene.points.astype(np.float64)[scene.indices]
+    n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    return n / np.linalg.norm(n, axis=1, keepdims=True)
+
+
+def triangle_areas(scene: Scene) -> np.ndarray:
+    """Areas (T,) of the scene's triangles."""
+    p = scene.points.astype(np.float64)[scene.indices]
+    return 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)

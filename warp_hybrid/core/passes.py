@@ -1,0 +1,87 @@
+"""The render-pass interface and the explicit state of one frame (Falcor's render passes).
+
+Every stage is a ``RenderPass`` with the same small lifecycle: ``set_scene`` (the
+device scene to draw, again after every scene update), ``resize`` (the frame size),
+``execute`` (run on one frame's ``FrameContext``).  A pass reads what earlier passes
+left in the context and writes its own outputs there, so a new pass (shadow maps, a
+mid-resolution ring) is a new class placed in the renderer's pass list, and no pass
+holds per-frame state of its own.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import warp as wp
+
+from ..timing import StageTimer
+from .camera import CameraGPU
+from .gbuffer import GBuffer
+
+if TYPE_CHECKING:
+    from ..focus import FocusRegion, FocusWindow
+    from ..scene.device import DeviceScene
+    from ..trace import PendingRayCounts
+
+
+class FrameBuffers:
+    """The per-pixel buffers a frame is drawn into, reused across frames: the G-buffer,
+    the raster and traced radiance layers, the composed ``color`` (linear radiance
+    before exposure) and the per-light ``visibility`` AOV (transmittance luminance,
+    NaN where not traced)."""
+
+    def __init__(self, width: int, height: int, lights: int, device: wp.context.Device) -> None:
+        """Allocate every buffer for ``width`` x ``height`` and ``lights`` lights."""
+        self.width = width
+        self.height = height
+        self.device = device
+        shape = (height, width)
+        self.gbuffer = GBuffer(width, height, device)
+        self.raster_color = wp.zeros(shape, dtype=wp.vec3, device=device)
+        self.traced_color = wp.zeros(shape, dtype=wp.vec3, device=device)
+        self.color = wp.zeros(shape, dtype=wp.vec3, device=device)
+        self.visibility = wp.full((height, width, lights), value=float("nan"), dtype=wp.float32, device=device)
+
+    def fits(self, width: int, height: int, lights: int) -> bool:
+        """Whether these buffers serve a frame of this size and light count."""
+        return (self.width, self.height, self.visibility.shape[2]) == (width, height, lights)
+
+
+@dataclass
+class FrameContext:
+    """Everything one frame's passes share, explicitly: the camera, the stage timer,
+    the buffers, this frame's focus window, and what passes produce for later ones
+    (the focus region, the pending ray counts, the image)."""
+
+    camera: CameraGPU
+    timer: StageTimer
+    buffers: FrameBuffers
+    window: FocusWindow | None = None
+    region: FocusRegion | None = None
+    rays: PendingRayCounts | None = None
+    image: Any = None
+    stats: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def gbuffer(self) -> GBuffer:
+        """This frame's G-buffer."""
+        return self.buffers.gbuffer
+
+
+class RenderPass(ABC):
+    """One stage of a frame (see the module docstring)."""
+
+    scene: DeviceScene | None = None
+
+    def set_scene(self, scene: DeviceScene) -> None:
+        """Draw ``scene`` from now on (called again after every scene update)."""
+        self.scene = scene
+
+    def resize(self, width: int, height: int) -> None:
+        """Frames are ``width`` x ``height`` from now on (passes with sized state override)."""
+
+    @abstractmethod
+    def execute(self, frame: FrameContext) -> None:
+        """Run this pass on ``frame``."""

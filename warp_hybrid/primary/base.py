@@ -1,0 +1,54 @@
+"""Primary visibility as one pass with two ways to find the nearest surface (Falcor's
+``GBufferBase`` -> ``GBufferRaster`` / ``GBufferRT``).
+
+``PrimaryVisibility.render`` checks the sizes, clears the G-buffer to the background
+record, lets the subclass write each pixel's hit record (``find_hits``: rasterized in
+``Rasterizer``, ray cast in ``RayCaster``), then runs the surface pass both share
+(stage "surface": the material at each hit record, textures filtered over the pixel's
+footprint, into every other channel).  The lighting, tracing and composition stages
+never know which path ran.
+"""
+
+from __future__ import annotations
+
+from abc import abstractmethod
+
+from ..core.camera import CameraGPU
+from ..core.gbuffer import GBuffer
+from ..core.passes import FrameContext, RenderPass
+from ..parallel import Launcher
+from ..scene.device import DeviceScene
+from ..timing import StageTimer
+from . import kernels
+
+
+class PrimaryVisibility(RenderPass):
+    """Fills the frame's G-buffer (see the module docstring)."""
+
+    def __init__(self, launcher: Launcher) -> None:
+        """Use ``launcher`` for the device and the host threads."""
+        self.launcher = launcher
+        launcher.ensure_loaded(kernels.surface_kernel)  # the primary kernels' one module
+
+    def execute(self, frame: FrameContext) -> None:
+        """Fill ``frame``'s G-buffer from the scene set with ``set_scene``."""
+        assert self.scene is not None, "set_scene first"
+        self.render(self.scene, frame.camera, frame.gbuffer, frame.timer)
+
+    def render(self, scene: DeviceScene, camera: CameraGPU, gbuffer: GBuffer, timer: StageTimer) -> None:
+        """Fill ``gbuffer`` with ``scene`` seen by ``camera`` (every pixel written)."""
+        if (camera.width, camera.height) != (gbuffer.width, gbuffer.height):
+            raise ValueError(
+                f"camera is for {camera.width}x{camera.height} but the G-buffer is {gbuffer.width}x{gbuffer.height}"
+            )
+        gbuffer.clear()
+        self.find_hits(scene, camera, gbuffer, timer)
+        with timer.stage("surface"):
+            self.launcher.launch_pixels(
+                kernels.surface_kernel, gbuffer.height, gbuffer.width, [scene.gpu, camera, gbuffer.rows()]
+            )
+
+    @abstractmethod
+    def find_hits(self, scene: DeviceScene, camera: CameraGPU, gbuffer: GBuffer, timer: StageTimer) -> None:
+        """Write the hit record (triangle, depth, barycentrics) of every pixel that sees
+        a surface; background pixels stay as cleared."""

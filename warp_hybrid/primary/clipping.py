@@ -1,0 +1,192 @@
+"""Camera-space transform, projection and clipping of triangles (``@wp.func``).
+
+Triangles wholly in front of the near plane and inside the guard band (+-``GUARD_PX``
+pixels around the screen centre, which keeps fixed-point coordinates in range) are
+projected from the shared per-vertex screen points.  The rare rest is clipped
+(``raster_clipped``) against the near plane and the guard band into a polygon,
+rasterized as a fan, in float64 from the world-space corners.
+"""
+
+from __future__ import annotations
+
+import warp as wp
+
+from ..core.camera import CameraGPU
+from ..core.scene_gpu import SceneGPU
+from .coverage import raster_triangle
+
+GUARD_PX = wp.constant(262144.0)
+
+# A clipped polygon has at most 3 + 5 vertices (near plane + 4 guard-band planes):
+# float64 coordinates, and which corner (0..2) each vertex is, -1 for a cut point.
+_vec9d = wp.types.vector(length=9, dtype=wp.float64)
+_vec9i = wp.types.vector(length=9, dtype=wp.int32)
+
+
+@wp.func(inline=True)
+def to_camera(cam: CameraGPU, p: wp.vec3) -> wp.vec3:
+    d = p - cam.origin
+    return wp.vec3(wp.dot(d, cam.right), wp.dot(d, cam.up), wp.dot(d, cam.forward))
+
+
+@wp.func(inline=True)
+def project(cam: CameraGPU, c: wp.vec3) -> wp.vec3:
+    """Camera-space point -> (screen x, screen y, view depth)."""
+    hw = 0.5 * float(cam.width)
+    hh = 0.5 * float(cam.height)
+    inv_z = 1.0 / c[2]
+    return wp.vec3(hw + c[0] * inv_z * (hw / cam.tan_x), hh - c[1] * inv_z * (hh / cam.tan_y), c[2])
+
+
+@wp.func(inline=True)
+def _clip_plane(cam: CameraGPU, k: int) -> wp.vec4d:
+    """Camera-space clip plane k as (a, b, c, d): inside where a x + b y + c z + d >= 0.
+    0 = near plane, 1..4 = guard band (x = +-gx z, y = +-gy z)."""
+    zero = wp.float64(0.0)
+    one = wp.float64(1.0)
+    if k == 0:
+        return wp.vec4d(zero, zero, one, -wp.float64(cam.near))
+    gx = wp.float64(GUARD_PX / (0.5 * float(cam.width))) * wp.float64(cam.tan_x)
+    gy = wp.float64(GUARD_PX / (0.5 * float(cam.height))) * wp.float64(cam.tan_y)
+    if k == 1:
+        return wp.vec4d(-one, zero, gx, zero)
+    if k == 2:
+        return wp.vec4d(one, zero, gx, zero)
+    if k == 3:
+        return wp.vec4d(zero, -one, gy, zero)
+    return wp.vec4d(zero, one, gy, zero)
+
+
+@wp.func(inline=True)
+def _to_camera_f64(cam: CameraGPU, p: wp.vec3) -> wp.vec3d:
+    """``to_camera`` in float64: the float32 inputs' differences and products are
+    exact, so a corner 1e4 away keeps ~1e-12 rather than ~1e-3 of absolute error."""
+    d = wp.vec3d(wp.float64(p[0]), wp.float64(p[1]), wp.float64(p[2])) - wp.vec3d(
+        wp.float64(cam.origin[0]), wp.float64(cam.origin[1]), wp.float64(cam.origin[2])
+    )
+    r = wp.vec3d(wp.float64(cam.right[0]), wp.float64(cam.right[1]), wp.float64(cam.right[2]))
+    u = wp.vec3d(wp.float64(cam.up[0]), wp.float64(cam.up[1]), wp.float64(cam.up[2]))
+    f = wp.vec3d(wp.float64(cam.forward[0]), wp.float64(cam.forward[1]), wp.float64(cam.forward[2]))
+    return wp.vec3d(wp.dot(d, r), wp.dot(d, u), wp.dot(d, f))
+
+
+@wp.func(inline=True)
+def _project_f64(cam: CameraGPU, c: wp.vec3d) -> wp.vec3:
+    """``project`` of a float64 camera-space point (rounded to float32 at the end)."""
+    hw = wp.float64(0.5 * float(cam.width))
+    hh = wp.float64(0.5 * float(cam.height))
+    inv_z = wp.float64(1.0) / c[2]
+    sx = hw + c[0] * inv_z * (hw / wp.float64(cam.tan_x))
+    sy = hh - c[1] * inv_z * (hh / wp.float64(cam.tan_y))
+    return wp.vec3(float(sx), float(sy), float(c[2]))
+
+
+@wp.func(inline=True)
+def in_guard_band(cam: CameraGPU, s: wp.vec3) -> bool:
+    return wp.abs(s[0] - 0.5 * float(cam.width)) <= GUARD_PX and wp.abs(s[1] - 0.5 * float(cam.height)) <= GUARD_PX
+
+
+@wp.func(inline=True)
+def _fan_vertex(
+    tri: int,
+    scene: SceneGPU,
+    cam: CameraGPU,
+    screen_points: wp.array(dtype=wp.vec3),
+    camera_points: wp.array(dtype=wp.vec3),
+    x: wp.float64,
+    y: wp.float64,
+    z: wp.float64,
+    corner: int,
+) -> wp.vec3:
+    """Screen point of a clipped polygon's vertex: a corner that has one (in front of
+    the near plane) takes the shared point unclipped neighbours use, so edges between
+    the two paths match bit for bit; a cut point is projected from float64."""
+    if corner >= 0:
+        p = scene.indices[3 * tri + corner]
+        if camera_points[p][2] >= cam.near:
+            return screen_points[p]
+    return _project_f64(cam, wp.vec3d(x, y, z))
+
+
+@wp.func(inline=False)
+def raster_clipped(
+    tri: int,
+    scene: SceneGPU,
+    cam: CameraGPU,
+    screen_points: wp.array(dtype=wp.vec3),
+    camera_points: wp.array(dtype=wp.vec3),
+    vis: wp.array3d(dtype=wp.uint64),
+    mode: int,
+    slot: int,
+):
+    """The rare path: a triangle crossing the near plane or leaving the guard band,
+    clipped to a polygon and rasterized as a fan.
+
+    Clipping runs in float64 on camera-space corners recomputed from the world-space
+    points: in float32 a corner 1e4 away carries ~1e-3 of error, so the cut of such an
+    edge with a near plane at 1e-5 can land at z <= 0 and the triangle vanish (a huge
+    floor seen from 1e-3 above it)."""
+    # Sutherland-Hodgman against the near plane and the guard band.  Each crossing
+    # point is interpolated from the inside corner towards the outside one, so an edge
+    # shared by two triangles is cut at bit-identical points (no crack).
+    xs = _vec9d()
+    ys = _vec9d()
+    zs = _vec9d()
+    src = _vec9i()
+    for v in range(3):
+        c = _to_camera_f64(cam, scene.points[scene.indices[3 * tri + v]])
+        xs[v] = c[0]
+        ys[v] = c[1]
+        zs[v] = c[2]
+        src[v] = v
+    n = int(3)
+    zero = wp.float64(0.0)
+    for k in range(5):
+        pl = _clip_plane(cam, k)
+        ox = _vec9d()
+        oy = _vec9d()
+        oz = _vec9d()
+        osrc = _vec9i()
+        m = int(0)
+        for i in range(n):
+            j = (i + 1) % n
+            pi = wp.vec3d(xs[i], ys[i], zs[i])
+            pj = wp.vec3d(xs[j], ys[j], zs[j])
+            di = pl[0] * pi[0] + pl[1] * pi[1] + pl[2] * pi[2] + pl[3]
+            dj = pl[0] * pj[0] + pl[1] * pj[1] + pl[2] * pj[2] + pl[3]
+            if di >= zero:
+                ox[m] = pi[0]
+                oy[m] = pi[1]
+                oz[m] = pi[2]
+                osrc[m] = src[i]
+                m += 1
+            if (di >= zero) != (dj >= zero):
+                p_in = pi
+                p_out = pj
+                d_in = di
+                d_out = dj
+                if di < zero:
+                    p_in = pj
+                    p_out = pi
+                    d_in = dj
+                    d_out = di
+                q = p_in + (p_out - p_in) * (d_in / (d_in - d_out))
+                ox[m] = q[0]
+                oy[m] = q[1]
+                oz[m] = q[2]
+                if k == 0:
+                    oz[m] = -pl[3]  # exactly on the near plane
+                osrc[m] = -1
+                m += 1
+        xs = ox
+        ys = oy
+        zs = oz
+        src = osrc
+        n = m
+        if n < 3:
+            return
+    s0 = _fan_vertex(tri, scene, cam, screen_points, camera_points, xs[0], ys[0], zs[0], src[0])
+    for i in range(1, n - 1):
+        s1 = _fan_vertex(tri, scene, cam, screen_points, camera_points, xs[i], ys[i], zs[i], src[i])
+        s2 = _fan_vertex(tri, scene, cam, screen_points, camera_points, xs[i + 1], ys[i + 1], zs[i + 1], src[i + 1])
+        raster_triangle(s0, s1, s2, tri, scene, cam, vis, mode, slot)

@@ -1,0 +1,211 @@
+"""Every Warp kernel of primary visibility (one compile unit).
+
+* ``camera_points_kernel`` (one thread per vertex): every point in camera space and,
+  in front of the near plane, projected to the screen, so the triangles sharing a
+  vertex reuse it (and see bit-identical corners).
+* ``coverage_kernel`` (one thread per triangle): trivial frustum rejects, clipping
+  (``clipping.py``) and coverage (``coverage.py``) into the per-thread key buffer.
+* ``resolve_kernel`` (per pixel): the smallest key over the key slices names the
+  nearest triangle; ``hit_record.exact_hit`` gives the pixel's hit record.
+* ``raycast_kernel`` (per pixel): the reference path, ``wp.mesh_query_ray`` through
+  each pixel centre from the near plane to the far plane, stepping past cut-away hits,
+  the same ``exact_hit`` on the face it finds.
+* ``surface_kernel`` (per pixel): the surface pass both paths share: the material at
+  the hit record, textures filtered over the pixel's footprint, into every other
+  G-buffer channel.
+
+The per-pixel kernels follow the launch layer's ``row0, row_step, cols`` convention
+(``parallel.Launcher.launch_pixels``) and write through ``GBufferRows``.  Background
+pixels are left as ``GBuffer.clear`` wrote them (the background record).  No back-face
+culling: the G-buffer must match the ray cast, which sees both sides.
+"""
+
+from __future__ import annotations
+
+import warp as wp
+
+from ..core.camera import CameraGPU, pixel_ray
+from ..core.constants import luma709
+from ..core.gbuffer import GBufferRows, Optics
+from ..core.scene_gpu import SceneGPU
+from ..scene.device.surface import is_cut_away, surface_at_grad
+from .clipping import in_guard_band, project, raster_clipped, to_camera
+from .coverage import EMPTY_KEY, raster_triangle
+from .hit_record import exact_hit, pixel_footprint
+
+wp.set_module_options({"enable_backward": False})
+
+# Ray-cast path: at most this many cut-away hits are stepped past per pixel.
+MAX_CUTOUT_LAYERS = wp.constant(32)
+
+
+@wp.kernel
+def camera_points_kernel(
+    scene: SceneGPU,
+    cam: CameraGPU,
+    camera_points: wp.array(dtype=wp.vec3),
+    screen_points: wp.array(dtype=wp.vec3),
+    start: int,
+    step: int,
+):
+    """Points start, start + step, ... in camera space (x right, y up, z = view depth)
+    and, in front of the near plane, on screen (x, y in pixels, view depth): once per
+    vertex rather than once per triangle corner."""
+    i = start + wp.tid() * step
+    c = to_camera(cam, scene.points[i])
+    camera_points[i] = c
+    if c[2] >= cam.near:
+        screen_points[i] = project(cam, c)
+
+
+@wp.kernel
+def coverage_kernel(
+    scene: SceneGPU,
+    cam: CameraGPU,
+    camera_points: wp.array(dtype=wp.vec3),
+    screen_points: wp.array(dtype=wp.vec3),
+    keys: wp.array3d(dtype=wp.uint64),
+    mode: int,
+    slot: int,
+    tri_start: int,
+    tri_step: int,
+):
+    """Rasterize triangles tri_start, tri_start + tri_step, ... (corners from
+    ``camera_points_kernel``) into ``keys[slot]``: depth keys (MODE_DEPTH) or fragment
+    counts (MODE_COUNT)."""
+    tri = tri_start + wp.tid() * tri_step
+    i0 = scene.indices[3 * tri]
+    i1 = scene.indices[3 * tri + 1]
+    i2 = scene.indices[3 * tri + 2]
+    c0 = camera_points[i0]
+    c1 = camera_points[i1]
+    c2 = camera_points[i2]
+
+    # Trivial rejects: wholly behind the near plane, beyond the far plane, or outside
+    # one side plane of the view frustum.
+    if c0[2] < cam.near and c1[2] < cam.near and c2[2] < cam.near:
+        return
+    if c0[2] > cam.far and c1[2] > cam.far and c2[2] > cam.far:
+        return
+    if c0[0] > cam.tan_x * c0[2] and c1[0] > cam.tan_x * c1[2] and c2[0] > cam.tan_x * c2[2]:
+        return
+    if -c0[0] > cam.tan_x * c0[2] and -c1[0] > cam.tan_x * c1[2] and -c2[0] > cam.tan_x * c2[2]:
+        return
+    if c0[1] > cam.tan_y * c0[2] and c1[1] > cam.tan_y * c1[2] and c2[1] > cam.tan_y * c2[2]:
+        return
+    if -c0[1] > cam.tan_y * c0[2] and -c1[1] > cam.tan_y * c1[2] and -c2[1] > cam.tan_y * c2[2]:
+        return
+
+    if c0[2] >= cam.near and c1[2] >= cam.near and c2[2] >= cam.near:
+        s0 = screen_points[i0]
+        s1 = screen_points[i1]
+        s2 = screen_points[i2]
+        if in_guard_band(cam, s0) and in_guard_band(cam, s1) and in_guard_band(cam, s2):
+            raster_triangle(s0, s1, s2, tri, scene, cam, keys, mode, slot)
+            return
+
+    raster_clipped(tri, scene, cam, screen_points, camera_points, keys, mode, slot)
+
+
+@wp.func(inline=True)
+def _write_hit_record(gb: GBufferRows, i: int, tri: int, hit: wp.vec3):
+    """Store the hit record (triangle, depth, barycentrics) at flat index ``i``."""
+    gb.triangle_id[i] = tri
+    gb.depth[i] = hit[0]
+    gb.barycentric[i] = wp.vec2(hit[1], hit[2])
+
+
+@wp.func(inline=True)
+def _textured(scene: SceneGPU, tri: int) -> bool:
+    """Whether the triangle's material samples any texture."""
+    m = scene.materials[scene.triangle_material[tri]]
+    slots = wp.max(wp.max(m.diffuse_tex, m.emissive_tex), wp.max(m.roughness_tex, m.metallic_tex))
+    return wp.max(slots, m.opacity_tex) >= 0
+
+
+@wp.func(inline=True)
+def _write_surface(gb: GBufferRows, i: int, scene: SceneGPU, cam: CameraGPU, tri: int, b: wp.vec2, d: wp.vec3):
+    """Evaluate the surface at barycentrics ``b`` of ``tri`` (textures filtered over the
+    pixel's footprint; ``d`` is the camera ray) into every other channel at ``i``."""
+    footprint = wp.vec4(0.0, 0.0, 0.0, 0.0)
+    if _textured(scene, tri):
+        footprint = pixel_footprint(scene, cam, tri, d)
+    h = surface_at_grad(scene, tri, b[0], b[1], d, footprint)
+    gb.position[i] = h.position
+    gb.normal[i] = h.normal
+    gb.geometric_normal[i] = h.geometric_normal
+    gb.albedo[i] = h.albedo
+    gb.specular[i] = h.specular
+    gb.emission[i] = h.emission
+    optics = Optics()
+    optics.reflectivity = luma709(h.specular)
+    optics.ior = h.ior
+    optics.opacity = h.opacity
+    optics.roughness = h.roughness
+    gb.optics[i] = optics
+    gb.material_id[i] = h.material
+
+
+@wp.kernel
+def resolve_kernel(
+    scene: SceneGPU,
+    cam: CameraGPU,
+    keys: wp.array3d(dtype=wp.uint64),
+    gb: GBufferRows,
+    row0: int,
+    row_step: int,
+    cols: int,
+):
+    """Per pixel: the nearest key over all key slices -> the hit record."""
+    r, c = wp.tid()
+    y = row0 + r * row_step
+    for x in range(c * cols, wp.min(c * cols + cols, cam.width)):
+        key = keys[0, y, x]
+        for s in range(1, keys.shape[0]):
+            key = wp.min(key, keys[s, y, x])
+        if key != EMPTY_KEY:
+            tri = int(key & wp.uint64(0xFFFFFFFF))
+            _write_hit_record(gb, y * cam.width + x, tri, exact_hit(scene, cam, tri, pixel_ray(cam, x, y)))
+
+
+@wp.func(inline=True)
+def _cast(scene: SceneGPU, cam: CameraGPU, gb: GBufferRows, x: int, y: int):
+    """The ray-cast hit record of pixel (x, y), if its ray hits anything."""
+    d = pixel_ray(cam, x, y)
+    t_base = cam.near
+    for _layer in range(MAX_CUTOUT_LAYERS):
+        q = wp.mesh_query_ray(scene.mesh, cam.origin + d * t_base, d, cam.far - t_base)
+        if not q.result:
+            return
+        t = t_base + q.t
+        if not is_cut_away(scene, q.face, q.u, q.v):
+            # The BVH picks the face; depth and barycentrics are recomputed exactly from
+            # the camera origin (mesh_query_ray works relative to far-away corners in
+            # float32, off by up to tens of percent on 1e4-sized triangles seen up close).
+            _write_hit_record(gb, y * cam.width + x, q.face, exact_hit(scene, cam, q.face, d))
+            return
+        t_base = t + 1.0e-5 * t
+
+
+@wp.kernel
+def raycast_kernel(scene: SceneGPU, cam: CameraGPU, gb: GBufferRows, row0: int, row_step: int, cols: int):
+    """Per pixel: closest ``wp.mesh_query_ray`` hit between the near and far planes,
+    stepping past hits in cut-out holes -> the hit record."""
+    r, c = wp.tid()
+    y = row0 + r * row_step
+    if scene.mesh != wp.uint64(0):
+        for x in range(c * cols, wp.min(c * cols + cols, cam.width)):
+            _cast(scene, cam, gb, x, y)
+
+
+@wp.kernel
+def surface_kernel(scene: SceneGPU, cam: CameraGPU, gb: GBufferRows, row0: int, row_step: int, cols: int):
+    """Per pixel: evaluate the surface named by the hit record (whichever primary path
+    wrote it) into the remaining G-buffer channels."""
+    r, c = wp.tid()
+    y = row0 + r * row_step
+    for x in range(c * cols, wp.min(c * cols + cols, cam.width)):
+        i = y * cam.width + x
+        tri = gb.triangle_id[i]
+        if tri >= 0:
+            _write_surface(gb, i, scene, cam, tri, gb.barycentric[i], pixel_ray(cam, x, y))

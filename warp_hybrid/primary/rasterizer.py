@@ -1,0 +1,96 @@
+"""Raster primary visibility: a key buffer of depth|triangle keys, then resolve.
+
+``Rasterizer.find_hits`` runs two timed stages (the base class adds "surface"):
+
+* ``raster``: the points are transformed once (``kernels.camera_points_kernel``),
+  then every triangle is rasterized (``kernels.coverage_kernel``) into a *key buffer*
+  of packed 64-bit keys (float32 view-depth bits << 32 | triangle id) with one atomic
+  min per covered pixel centre (``coverage.py``).  On a CPU, Warp's atomics are plain
+  read-modify-writes and one launch runs on one thread, so the triangles are split
+  between the launcher's threads and each thread owns one slice of the buffer; the
+  resolve pass takes the minimum over the slices (no merge pass).
+* ``resolve``: per pixel, the winning triangle is intersected with the pixel's camera
+  ray for exact depth and barycentrics: the hit record (``kernels.resolve_kernel``),
+  the same one the ray-cast path writes.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import warp as wp
+
+from ..core.camera import CameraGPU
+from ..core.gbuffer import GBuffer
+from ..parallel import Launcher
+from ..scene.device import DeviceScene
+from ..timing import StageTimer
+from . import kernels
+from .base import PrimaryVisibility
+from .coverage import EMPTY_KEY, MODE_COUNT, MODE_DEPTH
+
+_EMPTY_KEY = int(EMPTY_KEY.value)
+
+
+class Rasterizer(PrimaryVisibility):
+    """Finds each pixel's nearest surface by rasterization (stages "raster" and "resolve")."""
+
+    def __init__(self, launcher: Launcher) -> None:
+        """Use ``launcher`` for the device and the host threads."""
+        super().__init__(launcher)
+        self._keys: wp.array | None = None
+        self._points: tuple[wp.array, wp.array] | None = None
+
+    def _slices(self, height: int, width: int) -> wp.array:
+        """The key buffer, one (height, width) slice per thread, reused."""
+        shape = (self.launcher.threads, height, width)
+        if self._keys is None or self._keys.shape != shape:
+            self._keys = wp.empty(shape, dtype=wp.uint64, device=self.launcher.device)
+        return self._keys
+
+    def _transform_points(self, scene: DeviceScene, camera: CameraGPU) -> tuple[wp.array, wp.array]:
+        """The scene's points in camera space and on screen (buffers reused between
+        frames), see ``kernels.camera_points_kernel``."""
+        count = len(scene.points)
+        if self._points is None or self._points[0].shape[0] != count:
+            self._points = tuple(wp.zeros(count, dtype=wp.vec3, device=self.launcher.device) for _ in range(2))
+        self.launcher.launch_items(kernels.camera_points_kernel, count, [scene.gpu, camera, *self._points])
+        return self._points
+
+    def _rasterize(self, scene: DeviceScene, camera: CameraGPU, keys: wp.array, mode: int, clear: int) -> None:
+        """Transform the points, then run the coverage kernel, each thread on every
+        n-th triangle into its slice."""
+        launcher = self.launcher
+        launcher.ensure_loaded(kernels.coverage_kernel)
+        count = scene.scene.triangle_count
+        cam_points, screen_points = self._transform_points(scene, camera)
+
+        def piece(k: int, n: int) -> None:
+            keys[k].fill_(clear)
+            tris = (count - k + n - 1) // n
+            if tris > 0:
+                wp.launch(
+                    kernels.coverage_kernel,
+                    dim=tris,
+                    inputs=[scene.gpu, camera, cam_points, screen_points, keys, mode, k, k, n],
+                    device=launcher.device,
+                )
+
+        launcher.run(piece, keys.shape[0])
+
+    def find_hits(self, scene: DeviceScene, camera: CameraGPU, gbuffer: GBuffer, timer: StageTimer) -> None:
+        """Rasterize ``scene`` seen by ``camera`` and resolve each pixel's hit record."""
+        keys = self._slices(gbuffer.height, gbuffer.width)
+        with timer.stage("raster"):
+            self._rasterize(scene, camera, keys, MODE_DEPTH, _EMPTY_KEY)
+        with timer.stage("resolve"):
+            self.launcher.launch_pixels(
+                kernels.resolve_kernel, gbuffer.height, gbuffer.width, [scene.gpu, camera, keys, gbuffer.rows()]
+            )
+
+    def overdraw(self, scene: DeviceScene, camera: CameraGPU) -> np.ndarray:
+        """Diagnostic: (height, width) int64 count of rasterized fragments per pixel
+        (depth complexity; 1 where a flat mesh covers a pixel exactly once)."""
+        shape = (self.launcher.threads, camera.height, camera.width)
+        keys = wp.empty(shape, dtype=wp.uint64, device=self.launcher.device)
+        self._rasterize(scene, camera, keys, MODE_COUNT, 0)
+        return keys.numpy().sum(axis=0).astype(np.int64)

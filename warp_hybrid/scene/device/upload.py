@@ -1,0 +1,264 @@
+"""The device-resident scene: flat Warp arrays, material/texture/light tables, the BVH,
+and the dome's ambient data.
+
+Built once from a host ``Scene``.  ``SceneGPU`` (``core/scene_gpu.py``) is the single
+struct kernels take.  ``DeviceScene.update`` takes the same scene at another time: it
+copies moved points and normals and *refits* the ``wp.Mesh`` BVH instead of
+rebuilding it, re-uploads lights, materials, textures and the dome when they changed,
+re-analyses the features, and refuses clearly when the topology changed.
+``geometry_version`` counts point updates, so passes that keep derived BVHs (the
+tracer's shadow meshes) know when to refit theirs.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import warp as wp
+
+from ...core.features import analyse_features
+from ...core.scene_gpu import (
+    FLAG_CUTOUT,
+    FLAG_REFRACTIVE,
+    FLAG_SPECULAR_WORKFLOW,
+    FLAG_TRANSMISSIVE,
+    MAX_MIP_LEVELS,
+    AmbientGPU,
+    EnvironmentGPU,
+    LightGPU,
+    MaterialGPU,
+    MipOffsets,
+    SceneGPU,
+    TextureGPU,
+)
+from ...errors import SceneError
+from ...timing import StageTimer
+from ..model import Light, Material, Scene
+from .dome import build_ambient, dome_source, same_dome
+from .mipmaps import mip_chain
+
+
+def _struct_array(items: list, dtype: type, device: wp.context.Device) -> wp.array:
+    """A Warp array of structs; never empty (a default element pads an empty list,
+    the real count travels separately), since kernels cannot take 0-length tables."""
+    return wp.array(items if items else [dtype()], dtype=dtype, device=device)
+
+
+def _vec3(t: tuple[float, float, float] | np.ndarray) -> wp.vec3:
+    return wp.vec3(float(t[0]), float(t[1]), float(t[2]))
+
+
+def material_flags(m: Material) -> int:
+    """The ``FLAG_*`` bits of a material (the host predicates kernels test as bits)."""
+    bits = (
+        (FLAG_SPECULAR_WORKFLOW, m.use_specular_workflow),
+        (FLAG_TRANSMISSIVE, m.is_transmissive),
+        (FLAG_REFRACTIVE, m.is_refractive),
+        (FLAG_CUTOUT, m.is_cutout),
+    )
+    return sum(int(bit) for bit, on in bits if on)
+
+
+def _material_gpu(m: Material) -> MaterialGPU:
+    g = MaterialGPU()
+    g.diffuse = _vec3(m.diffuse)
+    g.emissive = _vec3(m.emissive)
+    g.specular = _vec3(m.specular)
+    g.metallic = float(m.metallic)
+    g.roughness = float(m.roughness)
+    g.opacity = float(m.opacity)
+    g.opacity_threshold = float(m.opacity_threshold)
+    g.ior = float(m.ior)
+    g.flags = material_flags(m)
+    g.diffuse_tex = int(m.diffuse_texture)
+    g.emissive_tex = int(m.emissive_texture)
+    g.roughness_tex = int(m.roughness_texture)
+    g.roughness_channel = int(m.roughness_channel)
+    g.metallic_tex = int(m.metallic_texture)
+    g.metallic_channel = int(m.metallic_channel)
+    g.opacity_tex = int(m.opacity_texture)
+    g.opacity_channel = int(m.opacity_channel)
+    return g
+
+
+def _light_gpu(light: Light) -> LightGPU:
+    g = LightGPU()
+    g.kind = int(light.kind)
+    g.color = _vec3(light.color)
+    g.position = _vec3(light.position)
+    d = np.asarray(light.direction, dtype=np.float64)
+    n = np.linalg.norm(d)
+    g.direction = _vec3(d / n if n > 0 else np.array([0.0, 0.0, -1.0]))
+    g.axis_u = _vec3(light.axis_u)
+    g.axis_v = _vec3(light.axis_v)
+    g.radius = float(light.radius)
+    g.cos_half_angle = float(math.cos(math.radians(0.5 * light.angle_deg)))
+    g.cos_cone = float(math.cos(math.radians(min(light.cone_angle_deg, 180.0))))
+    g.cone_softness = float(light.cone_softness)
+    g.normalize = 1 if light.normalize else 0
+    return g
+
+
+def _material_images(scene: Scene) -> set[int]:
+    """Indices of the images some material samples (those get mip chains; an image
+    only the dome light uses is looked up unfiltered and needs none)."""
+    return {
+        scene.textures[slot].image
+        for m in scene.materials
+        for slot in m.texture_slots()
+        if 0 <= slot < len(scene.textures)
+    }
+
+
+def _texture_source(scene: Scene) -> tuple:
+    """What the packed texels are derived from (bindings by value, images by identity)."""
+    return tuple(scene.textures), tuple(id(img.pixels) for img in scene.images), frozenset(_material_images(scene))
+
+
+def pack_textures(scene: Scene) -> tuple[np.ndarray, list[TextureGPU]]:
+    """Flat texels of every image (with its mip chain when a material samples it, so
+    minified lookups can pick a level) and one ``TextureGPU`` per binding."""
+    mipped = _material_images(scene)
+    chains = [
+        mip_chain(img.pixels)[:MAX_MIP_LEVELS] if k in mipped else [img.pixels] for k, img in enumerate(scene.images)
+    ]
+    level_offsets = []
+    total = 0
+    for chain in chains:
+        starts = []
+        for level in chain:
+            starts.append(total)
+            total += level.shape[0] * level.shape[1]
+        level_offsets.append(starts + [starts[-1]] * (MAX_MIP_LEVELS - len(starts)))
+    texels = np.zeros((max(total, 1), 4), dtype=np.float32)
+    for chain, starts in zip(chains, level_offsets):
+        for level, start in zip(chain, starts):
+            texels[start : start + level.shape[0] * level.shape[1]] = level.reshape(-1, 4)
+    structs = []
+    for t in scene.textures:
+        g = TextureGPU()
+        img = scene.images[t.image]
+        g.offset = level_offsets[t.image][0]
+        g.width = img.width
+        g.height = img.height
+        g.levels = len(chains[t.image])
+        g.level_offsets = MipOffsets(*level_offsets[t.image])
+        g.wrap_s = int(t.wrap_s)
+        g.wrap_t = int(t.wrap_t)
+        g.scale = wp.vec4(*[float(v) for v in t.scale])
+        g.bias = wp.vec4(*[float(v) for v in t.bias])
+        structs.append(g)
+    return texels, structs
+
+
+def _environment_gpu(scene: Scene) -> EnvironmentGPU:
+    env = EnvironmentGPU()
+    e = scene.environment
+    env.enabled = 1 if e is not None else 0
+    env.color = _vec3(e.color) if e is not None else wp.vec3(0.0, 0.0, 0.0)
+    env.texture = int(e.texture) if e is not None else -1
+    m = np.asarray(e.world_to_light if e is not None else np.eye(3), dtype=np.float32)
+    env.world_to_light = wp.mat33(*m.reshape(-1).tolist())
+    return env
+
+
+def _f32(a: np.ndarray, width: int) -> np.ndarray:
+    return np.ascontiguousarray(a.reshape(-1, width), dtype=np.float32)
+
+
+class DeviceScene:
+    """A ``Scene`` uploaded to one Warp device, with its BVH and dome data."""
+
+    def __init__(self, scene: Scene, device: wp.context.Device | str = "cpu", timer: StageTimer | None = None) -> None:
+        """Upload ``scene`` to ``device`` and build the BVH (once); ``timer`` gets the
+        stages "upload" and "bvh_build"."""
+        timer = timer or StageTimer()
+        self.device = wp.get_device(device)
+        self.geometry_version = 0
+        with timer.stage("upload"):
+            self.scene = scene
+            self.features = analyse_features(scene)
+            d = self.device
+            self.points = wp.array(_f32(scene.points, 3), dtype=wp.vec3, device=d)
+            self.indices = wp.array(np.ascontiguousarray(scene.indices.reshape(-1), np.int32), dtype=wp.int32, device=d)
+            self.corner_normals = wp.array(_f32(scene.corner_normals, 3), dtype=wp.vec3, device=d)
+            self.corner_uvs = wp.array(_f32(scene.corner_uvs, 2), dtype=wp.vec2, device=d)
+            self.triangle_material = wp.array(
+                np.ascontiguousarray(scene.triangle_material, np.int32), dtype=wp.int32, device=d
+            )
+            self._upload_materials(scene)
+            self._upload_textures(scene)
+            self._upload_lights(scene)
+            self._upload_dome(scene)
+        with timer.stage("bvh_build"):
+            self.mesh = wp.Mesh(points=self.points, indices=self.indices) if scene.triangle_count > 0 else None
+        self.gpu = self._make_struct()
+
+    def _upload_materials(self, scene: Scene) -> None:
+        self.materials = _struct_array([_material_gpu(m) for m in scene.materials], MaterialGPU, self.device)
+
+    def _upload_textures(self, scene: Scene) -> None:
+        texels, structs = pack_textures(scene)
+        # copy=False: on the CPU the packed array itself becomes the device array.
+        self.texels = wp.array(texels, dtype=wp.vec4, device=self.device, copy=False)
+        self.textures = _struct_array(structs, TextureGPU, self.device)
+        self._texture_source = _texture_source(scene)
+
+    def _upload_lights(self, scene: Scene) -> None:
+        self.lights = _struct_array([_light_gpu(li) for li in scene.lights], LightGPU, self.device)
+
+    def _upload_dome(self, scene: Scene) -> None:
+        self.ambient: AmbientGPU = build_ambient(scene, self.device)
+        self._dome_source = dome_source(scene)
+
+    def _make_struct(self) -> SceneGPU:
+        s = SceneGPU()
+        s.mesh = wp.uint64(self.mesh.id if self.mesh is not None else 0)
+        s.points = self.points
+        s.indices = self.indices
+        s.corner_normals = self.corner_normals
+        s.corner_uvs = self.corner_uvs
+        s.triangle_material = self.triangle_material
+        s.materials = self.materials
+        s.textures = self.textures
+        s.texels = self.texels
+        s.lights = self.lights
+        s.light_count = len(self.scene.lights)
+        s.environment = _environment_gpu(self.scene)
+        return s
+
+    def update(self, scene: Scene) -> None:
+        """Take ``scene``, the same scene at another time: copy moved points and normals
+        and refit the BVH; re-upload the lights, and the materials, textures and dome
+        where they changed; re-analyse the features.  Raises ``SceneError`` when the
+        topology (triangles, their materials) differs: build a new ``DeviceScene``."""
+        old = self.scene
+        if (
+            scene.indices.shape != old.indices.shape
+            or scene.points.shape != old.points.shape
+            or not np.array_equal(scene.indices, old.indices)
+            or not np.array_equal(scene.triangle_material, old.triangle_material)
+        ):
+            raise SceneError(
+                scene.path,
+                f"the topology changed between time {old.time} and {scene.time} "
+                f"({old.triangle_count} -> {scene.triangle_count} triangles); build a new DeviceScene instead",
+            )
+        if scene.points is not old.points and not np.array_equal(scene.points, old.points):
+            self.points.assign(_f32(scene.points, 3))
+            if self.mesh is not None:
+                self.mesh.refit()
+            self.geometry_version += 1
+        if scene.corner_normals is not old.corner_normals:
+            self.corner_normals.assign(_f32(scene.corner_normals, 3))
+        self.scene = scene
+        self._upload_lights(scene)
+        if scene.materials != old.materials:
+            self._upload_materials(scene)
+        if _texture_source(scene) != self._texture_source:
+            self._upload_textures(scene)
+        if not same_dome(dome_source(scene), self._dome_source):
+            self._upload_dome(scene)
+        self.features = analyse_features(scene)
+        self.gpu = self._make_struct()

@@ -1,0 +1,428 @@
+"""USD stage -> host ``Scene``: traversal, instancing, caching across time codes.
+
+``load_scene(path, time)`` is the one-shot entry point; ``UsdSceneSource`` keeps the
+stage open for animation: ``scene_at(t)`` re-evaluates only what may change over time
+(meshes whose points/topology/normals or transforms are time-sampled, instancers,
+lights, cameras) and reuses cached world-space data for the rest, so successive
+frames have the same topology (``DeviceScene.update`` refits instead of rebuilding)
+as long as visibility, topology and instance counts are not themselves animated.
+
+Traversal (``Usd.TraverseInstanceProxies``, so instanceable prims come through as
+instance proxies and share one triangulation per prototype mesh):
+
+* ``UsdGeom.Mesh`` prims that are visible at the time code and whose purpose is
+  ``default`` or ``render`` (guide and proxy are skipped);
+* ``UsdGeom.PointInstancer``: one batch per prototype mesh with all its instance
+  transforms (``ComputeInstanceTransformsAtTime``; inactive/invisible ids masked);
+* UsdLux lights (see ``lights``) and every ``UsdGeom.Camera`` (visible or not);
+* anything else that draws (other gprims such as Points, BasisCurves, NURBS, implicit
+  spheres/cubes, volumes; light filters; mesh lights; skinning) is reported once per
+  prim and skipped, never dropped silently.
+
+``MeshRange.prim_path`` is the mesh prim (an instance proxy path for instanceable
+prims, ``MESH@INSTANCER[i]`` for PointInstancer instance ``i``).  A stage without
+cameras gets one framing camera (``camera.framing_camera``), placed at the first
+time code evaluated and kept still afterwards.  The stage is treated as read-only
+while the source is open.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+
+import numpy as np
+from pxr import Usd, UsdGeom, UsdLux, UsdShade
+
+from ...errors import SceneError
+from ..model import Camera, Material, MeshRange, Scene
+from .camera import FRAMING_CAMERA_NAME, framing_camera, read_camera
+from .lights import read_lights
+from .materials import MaterialLibrary, bound_material
+from .meshes import LocalMesh, WorldMesh, corner_uvs, read_local_mesh, to_world
+from .stage import StageInfo, open_stage, read_stage_info, report_composition_errors
+from .textures import ImageLibrary
+from .validate import Diagnostics, validate_scene
+
+_SKIPPED_PURPOSES = (UsdGeom.Tokens.guide, UsdGeom.Tokens.proxy)
+_INSTANCER_ATTRS = (
+    "positions",
+    "orientations",
+    "orientationsf",
+    "scales",
+    "protoIndices",
+    "velocities",
+    "angularVelocities",
+    "invisibleIds",
+)
+
+
+@dataclass
+class _Item:
+    """One mesh to draw, once or as a batch of instances (``matrices`` (K, 4, 4))."""
+
+    key: str
+    prim: Usd.Prim
+    source: str
+    matrices: np.ndarray
+    animated: bool
+    names: list[str]
+
+
+@dataclass
+class _Part:
+    """An item in world space with its per-triangle materials."""
+
+    world: WorldMesh
+    triangle_material: np.ndarray
+    names: list[str]
+    animated: bool
+
+
+@dataclass
+class _Traversal:
+    items: list[_Item]
+    lights: list[Usd.Prim]
+    cameras: list[Usd.Prim]
+
+
+def _source_key(prim: Usd.Prim) -> str:
+    """Cache key for a mesh's local data: its prototype prim for instance proxies."""
+    return str(prim.GetPrimInPrototype().GetPath() if prim.IsInstanceProxy() else prim.GetPath())
+
+
+def _has_texture(m: Material) -> bool:
+    return any(t >= 0 for t in m.texture_slots())
+
+
+def _matrix(m) -> np.ndarray:
+    return np.array(m, dtype=np.float64).reshape(4, 4)
+
+
+class UsdSceneSource:
+    """An open USD stage that produces ``Scene`` snapshots at time codes."""
+
+    def __init__(self, path: str | os.PathLike, stage: Usd.Stage | None = None) -> None:
+        """Open ``path`` (or wrap an already opened ``stage``, e.g. one converted from
+        another format in memory; ``path`` then names it in messages)."""
+        self.path = os.fspath(path)
+        self.diagnostics = Diagnostics(self.path)
+        if stage is None:
+            stage = open_stage(self.path, self.diagnostics)
+        else:
+            report_composition_errors(stage, self.diagnostics)
+        self.stage = stage
+        self.info: StageInfo = read_stage_info(stage)
+        self.images = ImageLibrary(self.diagnostics)
+        self._materials: MaterialLibrary | None = None
+        self._local: dict[str, LocalMesh] = {}
+        self._parts: dict[str, _Part] = {}
+        self._framing: Camera | None = None
+        # False while no used layer holds time samples and no prim uses value clips:
+        # then nothing can vary over time and the per-attribute queries are skipped.
+        self._may_animate = any(len(layer.ListAllTimeSamples()) for layer in stage.GetUsedLayers())
+
+    @property
+    def time_range(self) -> tuple[float, float] | None:
+        """(startTimeCode, endTimeCode) when the stage authors a range, else None."""
+        return self.info.time_range
+
+    @property
+    def warnings(self) -> list[str]:
+        """Every warning reported so far (each once)."""
+        return list(self.diagnostics.messages)
+
+    def scene_at(self, time: float | None = None) -> Scene:
+        """The scene at ``time`` (default: the start of the time range, or 0)."""
+        t = self.info.default_time if time is None else float(time)
+        if self._materials is None:
+            self._materials = MaterialLibrary(self.images, self.diagnostics, t)
+        xcache = UsdGeom.XformCache(Usd.TimeCode(t))
+        try:  # textures decode on worker threads meanwhile; always collect them
+            trav = self._traverse(t, xcache)
+            parts = [self._part(item, t) for item in trav.items]
+            scene = self._assemble(parts, t)
+            scene.lights, scene.environment = read_lights(trav.lights, t, xcache, self.images, self.diagnostics)
+            scene.cameras = [read_camera(p, t, self.diagnostics) for p in trav.cameras]
+        finally:
+            self.images.finish()
+        if not scene.cameras:
+            if self._framing is None:  # framed once, at the first time evaluated, then kept still
+                self.diagnostics.warn(
+                    f"the stage has no UsdGeom.Camera; using {FRAMING_CAMERA_NAME} that frames the scene bounds"
+                )
+                self._framing = framing_camera(*scene.bounds, self.info.up_axis)
+            scene.cameras = [self._framing]
+        scene.images = list(self.images.images)
+        scene.textures = list(self.images.textures)
+        scene.materials = list(self._materials.materials)
+        scene.warnings = self.warnings
+        validate_scene(scene)
+        return scene
+
+    # -- traversal -----------------------------------------------------------------------
+
+    def _traverse(self, time: float, xcache: UsdGeom.XformCache) -> _Traversal:
+        tc = Usd.TimeCode(time)
+        diag = self.diagnostics
+        items: list[_Item] = []
+        lights: list[Usd.Prim] = []
+        cameras: list[Usd.Prim] = []
+        state: dict = {}
+        unauthored_subdiv: list[str] = []
+        it = iter(Usd.PrimRange(self.stage.GetPseudoRoot(), Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)))
+        next(it)  # the pseudo-root
+        for prim in it:
+            path = prim.GetPath()
+            hidden, pinfo, xanim = state.get(path.GetParentPath(), (False, None, False))
+            if prim.IsA(UsdShade.Material) or prim.IsA(UsdShade.Shader) or prim.IsA(UsdShade.NodeGraph):
+                it.PruneChildren()
+                continue
+            if prim.IsA(UsdGeom.Imageable):
+                img = UsdGeom.Imageable(prim)
+                if img.GetVisibilityAttr().Get(tc) == UsdGeom.Tokens.invisible:
+                    hidden = True
+                pinfo = img.ComputePurposeInfo(pinfo) if pinfo is not None else img.ComputePurposeInfo()
+            if not self._may_animate and prim.HasAuthoredMetadata("clips"):
+                self._may_animate = True
+            if self._may_animate and prim.IsA(UsdGeom.Xformable):
+                xf = UsdGeom.Xformable(prim)
+                xanim = (xanim and not xf.GetResetXformStack()) or xf.TransformMightBeTimeVarying()
+            state[path] = (hidden, pinfo, xanim)
+            if prim.IsA(UsdGeom.Camera):
+                cameras.append(prim)
+                continue
+            if hidden or (pinfo is not None and pinfo.purpose in _SKIPPED_PURPOSES):
+                continue
+            name = str(path)
+            if prim.IsA(UsdGeom.Mesh):
+                self._check_mesh_features(prim, unauthored_subdiv)
+                m = _matrix(xcache.GetLocalToWorldTransform(prim))[None]
+                items.append(_Item(name, prim, _source_key(prim), m, xanim, [name]))
+            elif prim.IsA(UsdGeom.PointInstancer):
+                items.extend(self._instancer_items(prim, tc, xcache, xanim))
+                it.PruneChildren()
+            elif prim.IsA(UsdLux.LightFilter):
+                diag.warn("light filters are not supported; ignored", name)
+            elif prim.HasAPI(UsdLux.LightAPI):
+                lights.append(prim)
+            elif prim.IsA(UsdGeom.Gprim):
+                diag.warn(f"{prim.GetTypeName()} prims are not supported (only UsdGeom.Mesh); skipped", name)
+        if unauthored_subdiv:
+            diag.warn(
+                f"{len(unauthored_subdiv)} meshes do not author subdivisionScheme (USD fallback: catmullClark); "
+                f"rendered as polygon meshes (first: {unauthored_subdiv[0]})",
+                key="unauthored-subdivision-scheme",
+            )
+        return _Traversal(items, lights, cameras)
+
+    def _check_mesh_features(self, prim: Usd.Prim, unauthored_subdiv: list[str]) -> None:
+        diag = self.diagnostics
+        name = str(prim.GetPath())
+        scheme = UsdGeom.Mesh(prim).GetSubdivisionSchemeAttr()
+        if not scheme.HasAuthoredValue():
+            unauthored_subdiv.append(name)
+        elif scheme.Get() != UsdGeom.Tokens.none:
+            diag.warn(f"subdivisionScheme {scheme.Get()!r} is not supported; rendered as its control cage", name)
+        applied = prim.GetAppliedSchemas()
+        if "MeshLightAPI" in applied:
+            diag.warn("MeshLightAPI emission is not supported; the mesh renders with its material only", name)
+        if "SkelBindingAPI" in applied:
+            diag.warn("skinning (SkelBindingAPI) is not applied; rendered in its rest pose", name)
+
+    def _instancer_items(
+        self, prim: Usd.Prim, tc: Usd.TimeCode, xcache: UsdGeom.XformCache, xanim: bool
+    ) -> list[_Item]:
+        diag = self.diagnostics
+        name = str(prim.GetPath())
+        pi = UsdGeom.PointInstancer(prim)
+        xforms = np.asarray(
+            pi.ComputeInstanceTransformsAtTime(
+                tc, tc, UsdGeom.PointInstancer.IncludeProtoXform, UsdGeom.PointInstancer.IgnoreMask
+            ),
+            dtype=np.float64,
+        ).reshape(-1, 4, 4)
+        proto_idx = np.asarray(pi.GetProtoIndicesAttr().Get(tc) or [], dtype=np.int64)
+        if len(xforms) != len(proto_idx):
+            if len(proto_idx):
+                diag.warn(
+                    "instance attributes disagree in length (positions/orientations/scales vs protoIndices); skipped",
+                    name,
+                )
+            return []
+        mask = pi.ComputeMaskAtTime(tc)
+        active = np.asarray(mask, dtype=bool) if len(mask) else np.ones(len(proto_idx), dtype=bool)
+        targets = pi.GetPrototypesRel().GetTargets()
+        bad = (proto_idx < 0) | (proto_idx >= len(targets))
+        if bad.any():
+            diag.warn(
+                f"{int(bad.sum())} protoIndices reach outside the {len(targets)} prototypes; those instances are skipped",
+                name,
+            )
+            active &= ~bad
+        world = _matrix(xcache.GetLocalToWorldTransform(prim))
+        animated = xanim or (
+            self._may_animate
+            and any(prim.GetAttribute(a).ValueMightBeTimeVarying() for a in _INSTANCER_ATTRS if prim.GetAttribute(a))
+        )
+        items = []
+        for j, target in enumerate(targets):
+            sel = np.flatnonzero(active & (proto_idx == j))
+            proto = self.stage.GetPrimAtPath(target)
+            if not sel.size or not proto:
+                continue
+            for mesh, rel, rel_animated in self._prototype_meshes(proto, tc, xcache):
+                matrices = rel[None] @ xforms[sel] @ world[None]
+                mesh_name = str(mesh.GetPath())
+                items.append(
+                    _Item(
+                        key=f"{name}[{j}]{mesh_name}",
+                        prim=mesh,
+                        source=_source_key(mesh),
+                        matrices=matrices,
+                        animated=animated or rel_animated,
+                        names=[f"{mesh_name}@{name}[{i}]" for i in sel],
+                    )
+                )
+        return items
+
+    def _prototype_meshes(self, proto: Usd.Prim, tc: Usd.TimeCode, xcache: UsdGeom.XformCache):
+        """(mesh prim, transform relative to the prototype root, animated) for each
+        drawable mesh of a PointInstancer prototype."""
+        diag = self.diagnostics
+        out = []
+        it = iter(Usd.PrimRange(proto, Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)))
+        for prim in it:
+            if not prim.IsA(UsdGeom.Imageable):
+                continue
+            img = UsdGeom.Imageable(prim)
+            if img.ComputeVisibility(tc) == UsdGeom.Tokens.invisible or img.ComputePurpose() in _SKIPPED_PURPOSES:
+                it.PruneChildren()
+                continue
+            name = str(prim.GetPath())
+            if prim.IsA(UsdGeom.PointInstancer):
+                diag.warn("nested PointInstancers are not supported; skipped", name)
+                it.PruneChildren()
+            elif prim.IsA(UsdGeom.Mesh):
+                self._check_mesh_features(prim, [])
+                rel, _resets = xcache.ComputeRelativeTransform(prim, proto)
+                animated = False
+                p = prim
+                while self._may_animate and p and p != proto:
+                    animated = animated or UsdGeom.Xformable(p).TransformMightBeTimeVarying()
+                    p = p.GetParent()
+                out.append((prim, _matrix(rel), animated))
+            elif prim.IsA(UsdGeom.Gprim):
+                diag.warn(f"{prim.GetTypeName()} prims are not supported (only UsdGeom.Mesh); skipped", name)
+        return out
+
+    # -- per-item data ----------------------------------------------------------------------------
+
+    def _part(self, item: _Item, time: float) -> _Part:
+        cached = self._parts.get(item.key)
+        if cached is not None:
+            return cached
+        local = self._local.get(item.source)
+        if local is None:
+            local = read_local_mesh(item.prim, time, self.path, self.diagnostics, self._may_animate)
+            if not local.time_varying:
+                self._local[item.source] = local
+        if not np.isfinite(item.matrices).all():
+            raise SceneError(self.path, "its local-to-world transform is not finite", item.names[0])
+        tri_material, varname, textured = self._triangle_materials(item.prim, local)
+        uvs = corner_uvs(local, item.prim, varname, time, self.diagnostics, textured)
+        world = to_world(local, uvs, item.matrices)
+        animated = local.time_varying or item.animated
+        part = _Part(world, np.tile(tri_material, item.matrices.shape[0]), item.names, animated)
+        if not animated:
+            self._parts[item.key] = part
+        return part
+
+    def _mesh_material(self, prim: Usd.Prim, material: UsdShade.Material | None, double_sided: bool) -> int:
+        lib = self._materials
+        if material is not None:
+            return lib.index(material, double_sided)
+        pv = UsdGeom.PrimvarsAPI(prim).FindPrimvarWithInheritance("displayColor")
+        if pv and pv.HasAuthoredValue():
+            values = np.asarray(pv.ComputeFlattened(Usd.TimeCode(lib.time)) or [], dtype=np.float64).reshape(-1, 3)
+            if len(values):
+                if len(values) > 1:
+                    self.diagnostics.warn(
+                        "displayColor varies over the mesh; its mean is used as the albedo", str(prim.GetPath())
+                    )
+                colour = values.mean(axis=0)
+                return lib.display_color(str(prim.GetPath()), tuple(float(c) for c in colour), double_sided)
+        return lib.default(double_sided)
+
+    def _triangle_materials(self, prim: Usd.Prim, local: LocalMesh) -> tuple[np.ndarray, str, bool]:
+        """Per-triangle material indices (GeomSubset bindings honoured), the uv
+        primvar their textures read and whether any of them is textured."""
+        lib = self._materials
+        ds = local.double_sided
+        mesh_index = self._mesh_material(prim, bound_material(prim), ds)
+        used = [mesh_index]
+        subsets = UsdShade.MaterialBindingAPI(prim).GetMaterialBindSubsets()
+        if not subsets:
+            tri = np.full(local.triangle_count, mesh_index, dtype=np.int32)
+        else:
+            face = np.full(local.face_count, mesh_index, dtype=np.int32)
+            for subset in subsets:
+                if subset.GetElementTypeAttr().Get() != UsdGeom.Tokens.face:
+                    self.diagnostics.warn("material subsets must have elementType face; ignored", str(subset.GetPath()))
+                    continue
+                idx = np.asarray(subset.GetIndicesAttr().Get(lib.time) or [], dtype=np.int64)
+                idx = idx[(idx >= 0) & (idx < local.face_count)]
+                mat = bound_material(subset.GetPrim())
+                sub_index = lib.index(mat, ds) if mat is not None else mesh_index
+                face[idx] = sub_index
+                used.append(sub_index)
+            tri = face[local.tri_face]
+        textured = [i for i in used if _has_texture(lib.materials[i])]
+        varname = lib.uv_primvar[textured[0]] if textured else lib.uv_primvar[mesh_index]
+        return tri, varname, bool(textured)
+
+    def _assemble(self, parts: list[_Part], time: float) -> Scene:
+        n_points = sum(len(p.world.points) for p in parts)
+        n_tris = sum(len(p.world.tri_points) for p in parts)
+        points = np.empty((n_points, 3), dtype=np.float32)
+        indices = np.empty((n_tris, 3), dtype=np.int32)
+        normals = np.empty((n_tris, 3, 3), dtype=np.float32)
+        uvs = np.empty((n_tris, 3, 2), dtype=np.float32)
+        materials = np.empty((n_tris,), dtype=np.int32)
+        ranges: list[MeshRange] = []
+        pb = tb = 0
+        for p in parts:
+            w = p.world
+            n, t = len(w.points), len(w.tri_points)
+            points[pb : pb + n] = w.points
+            indices[tb : tb + t] = w.tri_points + pb
+            normals[tb : tb + t] = w.corner_normals
+            uvs[tb : tb + t] = w.corner_uvs
+            materials[tb : tb + t] = p.triangle_material
+            pn, tn = n // w.instances, t // w.instances
+            for k, name in enumerate(p.names):
+                ranges.append(MeshRange(name, tb + k * tn, tn, pb + k * pn, pn, p.animated))
+            pb += n
+            tb += t
+        info = self.info
+        return Scene(
+            path=self.path,
+            points=points,
+            indices=indices,
+            corner_normals=normals,
+            corner_uvs=uvs,
+            triangle_material=materials,
+            materials=[],
+            meshes=ranges,
+            time=time,
+            time_range=info.time_range,
+            time_codes_per_second=info.time_codes_per_second,
+            meters_per_unit=info.meters_per_unit,
+            up_axis=info.up_axis,
+        )
+
+
+def load_scene(path: str | os.PathLike, time: float | None = None) -> Scene:
+    """Load the USD file ``path`` as a ``Scene`` at ``time`` (default: the start of its
+    time range, or 0).  Raises ``SceneError`` naming the file (and prim) for bad input."""
+    return UsdSceneSource(path).scene_at(time)

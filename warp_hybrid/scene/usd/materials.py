@@ -1,0 +1,305 @@
+"""UsdShade materials -> ``Material`` entries of the scene's material table.
+
+Binding: ``UsdShade.MaterialBindingAPI.ComputeBoundMaterial`` (purpose ``full``,
+falling back to all-purpose), so bindings inherited from ancestors, collection
+bindings and instance-root bindings resolve the way pxr defines them; per-face
+``GeomSubset`` bindings (family ``materialBind``) are honoured by the mesh reader.
+
+Surface: the universal-render-context surface output must lead to a
+``UsdPreviewSurface``.  Inputs diffuseColor, emissiveColor, specularColor,
+useSpecularWorkflow, metallic, roughness, opacity, opacityThreshold and ior are read as
+constants or, for diffuse/emissive/roughness/metallic/opacity, from a ``UsdUVTexture``
+(file resolved by pxr relative to the layer that authored it; sourceColorSpace;
+wrapS/wrapT; scale/bias; the connected output picks the channel) whose ``st`` comes
+from a ``UsdPrimvarReader_float2``.  A textured slot's constant keeps the input's
+schema default: the texture replaces it.  ``wrap = useMetadata`` means repeat
+(OpenCV exposes no wrap metadata).  Material ``customData`` ``sa:thinWalled``,
+``sa:attenuationColor`` and ``sa:attenuationDistance`` fill the volume fields.
+``doubleSided`` comes from the mesh, so one USD material can give two entries.
+
+Parameters are read once per source (at the first time code evaluated).  Anything
+else (other shader types, normal maps, displacement, clearcoat, occlusion, texture
+transforms, textures on unsupported inputs) is reported once per material.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+from pxr import Sdf, Usd, UsdShade
+
+from ..model import Material, Wrap
+from .textures import ImageLibrary
+from .validate import Diagnostics
+
+_WRAPS = {
+    "repeat": Wrap.REPEAT,
+    "clamp": Wrap.CLAMP,
+    "mirror": Wrap.MIRROR,
+    "black": Wrap.BLACK,
+    "useMetadata": Wrap.REPEAT,
+}
+_CHANNELS = {"rgb": -1, "rgba": -1, "r": 0, "g": 1, "b": 2, "a": 3}
+# Inputs the renderer ignores, with their neutral values: warn when set otherwise.
+_UNSUPPORTED_INPUTS = {
+    "normal": (0.0, 0.0, 1.0),
+    "displacement": 0.0,
+    "occlusion": 1.0,
+    "clearcoat": 0.0,
+    "clearcoatRoughness": 0.01,
+}
+DEFAULT_UV_SET = "st"
+
+
+@dataclass
+class _TextureRef:
+    """A texture binding feeding a slot, the channel it reads, its uv primvar."""
+
+    binding: int
+    channel: int
+    varname: str
+
+
+def bound_material(prim: Usd.Prim) -> UsdShade.Material | None:
+    """The material bound to ``prim`` for full rendering (inherited bindings included)."""
+    mat, _rel = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial(UsdShade.Tokens.full)
+    return mat if mat and mat.GetPrim().IsValid() else None
+
+
+def _is_output(attr: Usd.Attribute) -> bool:
+    return UsdShade.Utils.GetType(attr.GetName()) == UsdShade.AttributeType.Output
+
+
+class MaterialLibrary:
+    """The material table of one scene source, grown as meshes ask for materials.
+
+    Entries are keyed by (material prim path, doubleSided); ``uv_primvar[i]`` is the
+    primvar the textures of material ``i`` read (``st`` when it has none).
+    """
+
+    def __init__(self, images: ImageLibrary, diag: Diagnostics, time: float) -> None:
+        """Textures go to ``images``, warnings to ``diag``; inputs are read at ``time``."""
+        self.images = images
+        self.diag = diag
+        self.time = Usd.TimeCode(time)
+        self.materials: list[Material] = []
+        self.uv_primvar: list[str] = []
+        self._index: dict[tuple[str, bool], int] = {}
+        self._parsed: dict[str, tuple[Material, str]] = {}
+
+    def _add(self, key: tuple[str, bool], material: Material, uv: str) -> int:
+        self.materials.append(material)
+        self.uv_primvar.append(uv)
+        self._index[key] = len(self.materials) - 1
+        return self._index[key]
+
+    def default(self, double_sided: bool) -> int:
+        """The grey UsdPreviewSurface default for meshes with no material or colour."""
+        key = ("<default>", double_sided)
+        if key in self._index:
+            return self._index[key]
+        return self._add(key, Material("<default>", double_sided=double_sided), DEFAULT_UV_SET)
+
+    def display_color(self, mesh_path: str, color: tuple[float, float, float], double_sided: bool) -> int:
+        """A material for an unbound mesh whose albedo is its displayColor."""
+        key = (f"{mesh_path}:displayColor", double_sided)
+        if key in self._index:
+            return self._index[key]
+        return self._add(key, Material(key[0], diffuse=color, double_sided=double_sided), DEFAULT_UV_SET)
+
+    def index(self, material: UsdShade.Material, double_sided: bool) -> int:
+        """Table index for ``material`` on a mesh with this ``doubleSided`` value."""
+        path = str(material.GetPath())
+        key = (path, double_sided)
+        if key in self._index:
+            return self._index[key]
+        if path not in self._parsed:
+            self._parsed[path] = self._parse(material)
+        parsed, uv = self._parsed[path]
+        return self._add(key, replace(parsed, double_sided=double_sided), uv)
+
+    # -- parsing -------------------------------------------------------------------
+
+    def _parse(self, material: UsdShade.Material) -> tuple[Material, str]:
+        path = str(material.GetPath())
+        shader, _name, _type = material.ComputeSurfaceSource("")
+        if not shader or not shader.GetPrim().IsValid():
+            contexts = [o.GetBaseName() for o in material.GetSurfaceOutputs()]
+            self.diag.warn(
+                f"material has no universal UsdPreviewSurface surface (surface outputs: {contexts}); using default grey",
+                path,
+            )
+            return Material(path), DEFAULT_UV_SET
+        shader_id = shader.GetShaderId()
+        if shader_id != "UsdPreviewSurface":
+            self.diag.warn(
+                f"surface shader {shader.GetPath()} is {shader_id!r}, not UsdPreviewSurface; using default grey", path
+            )
+            return Material(path), DEFAULT_UV_SET
+        prim = material.GetPrim()
+        m = Material(path)
+        refs: list[_TextureRef] = []
+
+        def colour(name: str, default: tuple[float, float, float]) -> tuple[tuple[float, float, float], int]:
+            value, tex = self._slot(shader, name, path, is_colour=True, texturable=True)
+            if tex is not None:
+                refs.append(tex)
+                return default, tex.binding
+            return (tuple(float(c) for c in value) if value is not None else default), -1
+
+        def scalar(name: str, default: float, texturable: bool) -> tuple[float, int, int]:
+            value, tex = self._slot(shader, name, path, is_colour=False, texturable=texturable)
+            if tex is not None:
+                refs.append(tex)
+                return default, tex.binding, tex.channel
+            return (float(value) if value is not None else default), -1, 0
+
+        m.diffuse, m.diffuse_texture = colour("diffuseColor", m.diffuse)
+        m.emissive, m.emissive_texture = colour("emissiveColor", m.emissive)
+        spec, _ = self._slot(shader, "specularColor", path, is_colour=True, texturable=False)
+        if spec is not None:
+            m.specular = tuple(float(c) for c in spec)
+        workflow, _ = self._slot(shader, "useSpecularWorkflow", path, is_colour=False, texturable=False)
+        m.use_specular_workflow = bool(workflow) if workflow is not None else False
+        m.metallic, m.metallic_texture, m.metallic_channel = scalar("metallic", m.metallic, True)
+        m.roughness, m.roughness_texture, m.roughness_channel = scalar("roughness", m.roughness, True)
+        m.opacity, m.opacity_texture, opacity_channel = scalar("opacity", m.opacity, True)
+        if m.opacity_texture >= 0:
+            m.opacity_channel = opacity_channel
+        m.opacity_threshold, _, _ = scalar("opacityThreshold", m.opacity_threshold, False)
+        m.ior, _, _ = scalar("ior", m.ior, False)
+        self._warn_unsupported_inputs(shader, path)
+        self._read_custom_data(prim, m)
+        varnames = list(dict.fromkeys(r.varname for r in refs))
+        if len(varnames) > 1:
+            self.diag.warn(f"textures read several uv primvars {varnames}; only {varnames[0]!r} is used", path)
+        return m, (varnames[0] if varnames else DEFAULT_UV_SET)
+
+    def _read_custom_data(self, prim: Usd.Prim, m: Material) -> None:
+        thin = prim.GetCustomDataByKey("sa:thinWalled")
+        if thin is not None:
+            m.thin_walled = bool(thin)
+        att = prim.GetCustomDataByKey("sa:attenuationColor")
+        if att is not None:
+            m.attenuation_color = tuple(float(c) for c in att)[:3]
+        dist = prim.GetCustomDataByKey("sa:attenuationDistance")
+        if dist is not None:
+            m.attenuation_distance = float(dist)
+
+    def _warn_unsupported_inputs(self, shader: UsdShade.Shader, path: str) -> None:
+        for name, neutral in _UNSUPPORTED_INPUTS.items():
+            inp = shader.GetInput(name)
+            if not inp:
+                continue
+            attrs = inp.GetValueProducingAttributes(False)
+            if not attrs:
+                continue
+            if _is_output(attrs[0]):
+                self.diag.warn(f"UsdPreviewSurface input {name} is connected to a node; not supported, ignored", path)
+                continue
+            value = attrs[0].Get(self.time)
+            if value is not None and not np.allclose(np.asarray(value, dtype=np.float64), neutral, atol=1e-6):
+                self.diag.warn(f"UsdPreviewSurface input {name} = {value} is not supported, ignored", path)
+
+    def _slot(
+        self, shader: UsdShade.Shader, name: str, path: str, is_colour: bool, texturable: bool
+    ) -> tuple[object, _TextureRef | None]:
+        """(constant value or None for the default, texture reference or None)."""
+        inp = shader.GetInput(name)
+        if not inp:
+            return None, None
+        attrs = inp.GetValueProducingAttributes(False)
+        if not attrs:
+            return None, None
+        attr = attrs[0]
+        if not _is_output(attr):
+            return attr.Get(self.time), None
+        node = UsdShade.Shader(attr.GetPrim())
+        output = UsdShade.Utils.GetBaseNameAndType(attr.GetName())[0]
+        node_id = node.GetShaderId() if node else None
+        if node_id != "UsdUVTexture":
+            self.diag.warn(
+                f"input {name} is fed by {attr.GetPath()} ({node_id!r}); only UsdUVTexture is supported, using the default",
+                path,
+            )
+            return None, None
+        if not texturable:
+            self.diag.warn(
+                f"input {name} is textured ({node.GetPath()}); textures on {name} are not supported, using the default",
+                path,
+            )
+            return None, None
+        return None, self._texture(node, str(output), path, name, is_colour)
+
+    def _node_value(self, node: UsdShade.Shader, name: str, default: object) -> object:
+        inp = node.GetInput(name)
+        if not inp:
+            return default
+        attrs = inp.GetValueProducingAttributes(False)
+        if not attrs or _is_output(attrs[0]):
+            return default
+        value = attrs[0].Get(self.time)
+        return default if value is None else value
+
+    def _asset(self, node: UsdShade.Shader) -> tuple[str, str]:
+        """(resolved path, authored path) of a texture node's ``inputs:file``."""
+        inp = node.GetInput("file")
+        attrs = inp.GetValueProducingAttributes(False) if inp else []
+        if not attrs or _is_output(attrs[0]):
+            return "", ""
+        value = attrs[0].Get(self.time)
+        if not isinstance(value, Sdf.AssetPath):
+            return "", ""
+        return value.resolvedPath or "", value.path
+
+    def _texture(self, node: UsdShade.Shader, output: str, path: str, slot: str, is_colour: bool) -> _TextureRef:
+        resolved, authored = self._asset(node)
+        colour_space = str(self._node_value(node, "sourceColorSpace", "auto"))
+        if colour_space not in ("sRGB", "raw", "auto"):
+            self.diag.warn(f"texture {node.GetPath()} has sourceColorSpace {colour_space!r}; treated as auto", path)
+            colour_space = "auto"
+        wraps = []
+        for axis in ("wrapS", "wrapT"):
+            token = str(self._node_value(node, axis, "useMetadata"))
+            if token not in _WRAPS:
+                self.diag.warn(f"texture {node.GetPath()} has {axis} {token!r}; treated as repeat", path)
+            wraps.append(_WRAPS.get(token, Wrap.REPEAT))
+        scale = tuple(float(v) for v in self._node_value(node, "scale", (1.0, 1.0, 1.0, 1.0)))
+        bias = tuple(float(v) for v in self._node_value(node, "bias", (0.0, 0.0, 0.0, 0.0)))
+        if output not in _CHANNELS:
+            self.diag.warn(f"input {slot} reads output {output!r} of {node.GetPath()}; reading rgb", path)
+        channel = _CHANNELS.get(output, -1)
+        broadcast = -1
+        if is_colour and channel >= 0:
+            broadcast = channel
+            scale = (scale[channel],) * 3 + (scale[3],)
+            bias = (bias[channel],) * 3 + (bias[3],)
+        image = self.images.image(resolved, authored, colour_space, path, broadcast)
+        binding = self.images.binding(image, wraps[0], wraps[1], scale, bias)
+        return _TextureRef(binding, max(channel, 0), self._varname(node, path))
+
+    def _varname(self, texture: UsdShade.Shader, path: str) -> str:
+        """The primvar a texture's ``st`` reads: follow the connection to a
+        ``UsdPrimvarReader_float2`` (through a ``UsdTransform2d``, which is ignored)."""
+        node = texture
+        input_name = "st"
+        for _ in range(4):
+            inp = node.GetInput(input_name)
+            attrs = inp.GetValueProducingAttributes(False) if inp else []
+            if not attrs or not _is_output(attrs[0]):
+                self.diag.warn(
+                    f"texture {texture.GetPath()} has no primvar reader on st; reading {DEFAULT_UV_SET!r}", path
+                )
+                return DEFAULT_UV_SET
+            node = UsdShade.Shader(attrs[0].GetPrim())
+            node_id = node.GetShaderId()
+            if node_id == "UsdTransform2d":
+                self.diag.warn(f"UsdTransform2d {node.GetPath()} (uv transform) is not supported, ignored", path)
+                input_name = "in"
+                continue
+            if node_id != "UsdPrimvarReader_float2":
+                self.diag.warn(f"texture st is fed by {node.GetPath()} ({node_id!r}); reading {DEFAULT_UV_SET!r}", path)
+                return DEFAULT_UV_SET
+            return str(self._node_value(node, "varname", DEFAULT_UV_SET)) or DEFAULT_UV_SET
+        return DEFAULT_UV_SET

@@ -1,0 +1,84 @@
+"""Open a USD stage with clear errors, and read its stage-level metadata.
+
+pxr composes sublayers, references and payloads; composition problems it can work
+around (a missing sublayer or reference) become warnings, a file that is missing or
+is not USD becomes a ``SceneError`` naming the file.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from dataclasses import dataclass
+
+from pxr import Tf, Usd, UsdGeom
+
+from ...errors import SceneError
+from .validate import Diagnostics
+
+USD_SUFFIXES = (".usd", ".usda", ".usdc", ".usdz")
+
+
+@dataclass(frozen=True)
+class StageInfo:
+    """Stage metadata: units, up axis and the authored time range.
+
+    ``time_range`` is ``(startTimeCode, endTimeCode)`` when the stage authors one,
+    else None; ``default_time`` is the time code used when the caller gives none
+    (the start of the range, or 0).
+    """
+
+    meters_per_unit: float
+    up_axis: str
+    time_range: tuple[float, float] | None
+    time_codes_per_second: float
+    default_time: float
+
+
+def _tf_reason(exc: Exception) -> str:
+    """The first quoted message of a ``Tf.ErrorException`` (pxr wraps the useful text
+    in quotes after a long C++ location)."""
+    found = re.findall(r"'([^']+)'", str(exc))
+    return found[0] if found else str(exc).strip()
+
+
+def open_stage(path: str | os.PathLike, diag: Diagnostics | None = None) -> Usd.Stage:
+    """Open ``path`` with pxr (everything loaded, all composition done by pxr).
+
+    Raises ``SceneError`` when the file is missing, unreadable or not USD.  Composition
+    errors pxr can skip (missing sublayers/references) are reported to ``diag``.
+    """
+    p = os.fspath(path)
+    if not os.path.exists(p):
+        raise SceneError(p, "file not found")
+    if not os.path.isfile(p):
+        raise SceneError(p, "not a file")
+    try:
+        stage = Usd.Stage.Open(p, Usd.Stage.LoadAll)
+    except Tf.ErrorException as exc:
+        raise SceneError(p, f"not a readable USD file ({_tf_reason(exc)})") from None
+    if stage is None:
+        raise SceneError(p, "pxr could not open this file as a USD stage")
+    if diag is not None:
+        report_composition_errors(stage, diag)
+    return stage
+
+
+def report_composition_errors(stage: Usd.Stage, diag: Diagnostics) -> None:
+    """Turn pxr's composition errors (missing sublayers, references, payloads) into
+    warnings: pxr skips the broken arc, so the scene still loads without it."""
+    for err in stage.GetCompositionErrors():
+        diag.warn(f"composition error: {err}")
+
+
+def read_stage_info(stage: Usd.Stage) -> StageInfo:
+    """metersPerUnit, upAxis, and the authored time range of ``stage``."""
+    has_range = stage.HasAuthoredTimeCodeRange()
+    start, end = float(stage.GetStartTimeCode()), float(stage.GetEndTimeCode())
+    return StageInfo(
+        meters_per_unit=float(UsdGeom.GetStageMetersPerUnit(stage)),
+        up_axis=str(UsdGeom.GetStageUpAxis(stage)),
+        time_range=(start, end) if has_range else None,
+        time_codes_per_second=float(stage.GetTimeCodesPerSecond()),
+        default_time=start if has_range else 0.0,
+    )

@@ -1,0 +1,380 @@
+"""The path loop: the traced radiance of a pixel (stage "trace_secondary").
+
+``path_kernel(variant)`` runs over a compacted pixel list (item ``start + tid * step``;
+each item writes only its own pixel and its own row of the scratch arrays).  Per pixel,
+the primary point from the G-buffer is shaded with the transmittances the shadow
+kernel left (``shadows.py``), then an iterative path of reflection and refraction rays
+(no recursion) whose hits are shaded the same way, with their own shadow rays.
+
+Shading of a hit (primary or secondary) at depth d < max_depth (``shade_hit``):
+emission + sum of T_i x direct_light + dome SH diffuse, plus
+
+* a reflection ray (``optics.mirror_direction``) when the material is smooth
+  (roughness < ``SMOOTH_ROUGHNESS``, the rule the feature analysis uses too) and
+  reflective, weighted by the split-sum ``env_brdf`` for opaque materials and by the
+  exact Fresnel F for transmissive ones; rougher surfaces keep the raster prefiltered
+  dome term;
+* for transmissive materials a transmission ray (``optics``).
+
+At d = max_depth the hit gets the raster shading (prefiltered dome reflection, the
+raster transmission approximation) with traced shadows.  A secondary hit skips the
+shadow ray (and the light) where the light's unshadowed contribution to the pixel is
+below ``MIN_THROUGHPUT`` times E / pi (what the light gives a white Lambertian surface
+facing it): e.g. the near-delta highlights of clear glass.
+
+Branching: a dielectric spawns two rays; the path follows the heavier one and pushes
+the other on a small per-pixel stack (``PathStack``: depth-first, at most
+``MAX_DEPTH`` entries), so both branches reach full depth.  Branches whose throughput
+drops below ``MIN_THROUGHPUT`` (max RGB component) are not traced.  Escaping rays and
+background pixels get ``environment_radiance`` (black without a dome).
+"""
+
+from __future__ import annotations
+
+import functools
+
+import warp as wp
+
+from ..core.camera import CameraGPU, pixel_ray_direction
+from ..core.constants import INV_PI, SMOOTH_ROUGHNESS
+from ..core.gbuffer import GBufferArrays
+from ..core.scene_gpu import FLAG_TRANSMISSIVE, AmbientGPU, SceneGPU
+from ..lighting.ambient import ambient_diffuse, ambient_specular, env_brdf
+from ..lighting.lights import light_sample
+from ..lighting.shading import diffuse_albedo, light_response, shade_surface
+from ..scene.device.environment import environment_radiance
+from ..scene.device.surface import SurfaceHit, is_cut_away, surface_at
+from .occluders import OccluderGPU
+from .offset import offset_ray_origin
+from .optics import make_transmission_func, mirror_direction, transmission_tint
+from .rays import MAX_LAYERS, MIN_THROUGHPUT, RayHit, TraceParams, max3, pixel_row, step_past
+from .shadows import make_light_func
+from .variant import TraceVariant
+
+MAX_DEPTH = 8
+
+# Ray kinds: the columns of the per-item ray counts (0 primary shadow, 1 secondary
+# shadow, 2 reflection, 3 refraction).
+COUNT_COLUMNS = 4
+KIND_NONE = wp.constant(0)
+KIND_REFLECT = wp.constant(2)
+KIND_REFRACT = wp.constant(3)
+
+_stack_vec3s = wp.types.matrix(shape=(MAX_DEPTH, 3), dtype=wp.float32)
+_stack_ints = wp.types.vector(length=MAX_DEPTH, dtype=wp.int32)
+
+
+@wp.struct
+class Ray:
+    """A ray still to trace: origin, direction, path weight, the depth of the hit it
+    will find and its kind (``KIND_*``; ``KIND_NONE`` = no ray)."""
+
+    origin: wp.vec3
+    direction: wp.vec3
+    weight: wp.vec3
+    depth: int
+    kind: int
+
+
+@wp.struct
+class HitShading:
+    """What shading one hit gives: radiance already times the path weight, the shadow
+    rays it took, and its continuation (``next.kind`` is ``KIND_NONE`` for none)
+    plus a second branch to push (``pushed.kind`` likewise)."""
+
+    radiance: wp.vec3
+    shadow_rays: int
+    next: Ray
+    pushed: Ray
+
+
+@wp.func
+def gbuffer_surface(scene: SceneGPU, gb: GBufferArrays, y: int, x: int, d: wp.vec3) -> SurfaceHit:
+    """The primary surface of pixel (x, y) from the G-buffer, seen along ``d``
+    (``front_face`` from the winding of its triangle)."""
+    h = SurfaceHit()
+    tri = gb.triangle_id[y, x]
+    h.position = gb.position[y, x]
+    h.normal = gb.normal[y, x]
+    h.geometric_normal = gb.geometric_normal[y, x]
+    k = 3 * tri
+    p0 = scene.points[scene.indices[k]]
+    winding = wp.cross(scene.points[scene.indices[k + 1]] - p0, scene.points[scene.indices[k + 2]] - p0)
+    h.front_face = 1
+    if wp.dot(winding, d) > 0.0:
+        h.front_face = 0
+    h.albedo = gb.albedo[y, x]
+    h.specular = gb.specular[y, x]
+    h.emission = gb.emission[y, x]
+    opt = gb.optics[y, x]
+    h.ior = opt.ior
+    h.opacity = opt.opacity
+    h.roughness = opt.roughness
+    h.material = gb.material_id[y, x]
+    h.flags = scene.materials[h.material].flags
+    return h
+
+
+@wp.func
+def make_ray(origin: wp.vec3, direction: wp.vec3, weight: wp.vec3, depth: int, kind: int) -> Ray:
+    """A ``Ray`` from its parts."""
+    r = Ray()
+    r.origin = origin
+    r.direction = direction
+    r.weight = weight
+    r.depth = depth
+    r.kind = kind
+    return r
+
+
+@wp.func
+def no_ray() -> Ray:
+    """The empty ``Ray`` (``KIND_NONE``)."""
+    return make_ray(wp.vec3(0.0), wp.vec3(0.0), wp.vec3(0.0), 0, KIND_NONE)
+
+
+@functools.lru_cache(maxsize=None)
+def path_kernel(variant: TraceVariant) -> wp.Kernel:
+    """The path kernel for one variant (its own Warp module, cached).
+
+    Inputs: scene, amb, cam, params, occluders, gbuffer, pixels, transmittance (items, L)
+    from the shadow kernel, color (H, W) out, counts (items, 4) out (columns 1-3), start,
+    step."""
+    light_transmittance = make_light_func(variant.layered_shadows, variant.soft_shadows, variant.cutouts)
+    transmission = make_transmission_func(variant.refractions)
+    shadows = variant.shadows
+    reflections = variant.reflections
+    transparency = variant.transparency
+    environment = variant.environment
+    cutouts = variant.cutouts
+    secondary = variant.secondary
+
+    @wp.func
+    def closest_hit(scene: SceneGPU, params: TraceParams, o: wp.vec3, d: wp.vec3) -> RayHit:
+        out = RayHit()
+        out.face = -1
+        origin = o
+        for _layer in range(MAX_LAYERS):
+            q = wp.mesh_query_ray(scene.mesh, origin, d, wp.inf)
+            if not q.result:
+                return out
+            if wp.static(cutouts):
+                if is_cut_away(scene, q.face, q.u, q.v):
+                    origin = step_past(scene, params, q.face, q.u, q.v, q.normal, d)
+                    continue
+            out.face = q.face
+            out.u = q.u
+            out.v = q.v
+            return out
+        return out
+
+    @wp.func
+    def shade_hit(
+        scene: SceneGPU,
+        amb: AmbientGPU,
+        params: TraceParams,
+        occ: OccluderGPU,
+        transmittance: wp.array2d(dtype=wp.vec3),
+        item: int,
+        pixel: int,
+        segment: int,
+        h: SurfaceHit,
+        d: wp.vec3,
+        weight: wp.vec3,
+        depth: int,
+        can_push: bool,
+    ) -> HitShading:
+        """Shade hit ``h`` seen along ``d`` with path ``weight`` at ``depth``; segment 0
+        (the primary point) takes the shadow kernel's transmittances.  Two branches
+        split only when ``can_push`` (room on the stack); otherwise the reflection goes on."""
+        zero = wp.vec3(0.0, 0.0, 0.0)
+        out = HitShading()
+        out.shadow_rays = 0
+        out.next = no_ray()
+        out.pushed = no_ray()
+        v = -d
+        n = h.normal
+        ng = h.geometric_normal
+        transmissive = False
+        if wp.static(transparency):
+            transmissive = (h.flags & FLAG_TRANSMISSIVE) != 0
+        traced = depth < params.max_depth
+        kd = h.albedo
+        if traced:
+            if transmissive:
+                kd = h.albedo * h.opacity
+        else:
+            kd = diffuse_albedo(scene, n, v, h.albedo, h.opacity, h.ior, h.flags)
+        direct = wp.vec3(0.0, 0.0, 0.0)
+        if wp.static(shadows):
+            for i in range(scene.light_count):
+                ls = light_sample(scene.lights[i], h.position, n)
+                c = light_response(ls, n, v, kd, h.specular, h.roughness)
+                tr = wp.vec3(0.0, 0.0, 0.0)
+                if segment == 0:
+                    tr = transmittance[item, i]
+                elif max3(wp.cw_mul(weight, c)) >= MIN_THROUGHPUT * INV_PI * max3(ls.e_normal):
+                    r = light_transmittance(scene, params, occ, i, ls, h.position, n, ng, transmissive, pixel, segment)
+                    tr = r.transmittance
+                    out.shadow_rays += r.rays
+                direct += wp.cw_mul(c, tr)
+        if not traced:
+            c = h.emission + direct
+            if wp.static(environment):
+                c = shade_surface(
+                    scene, amb, n, v, h.albedo, kd, h.specular, h.roughness, h.emission, h.opacity, h.ior, h.flags, direct
+                )
+            out.radiance = wp.cw_mul(weight, c)
+            return out
+        c = h.emission + direct
+        if wp.static(environment):
+            c += ambient_diffuse(scene, amb, n, v, kd, h.specular)
+        # children: a = reflection, b = transmission
+        a_w = zero
+        a_d = zero
+        b_w = zero
+        b_d = zero
+        smooth = h.roughness < SMOOTH_ROUGHNESS
+        if wp.static(secondary):
+            if transmissive:
+                tm = transmission(h, d)
+                if smooth or tm.valid == 0:
+                    a_w = wp.vec3(tm.fresnel, tm.fresnel, tm.fresnel)
+                    a_d = mirror_direction(d, n, ng)
+                elif wp.static(environment):
+                    c += ambient_specular(scene, amb, n, v, h.specular, h.roughness)
+                if tm.valid != 0:
+                    b_w = transmission_tint(h) * (1.0 - tm.fresnel)
+                    b_d = tm.direction
+            else:
+                if wp.static(reflections):
+                    if smooth:
+                        a_w = env_brdf(amb, h.specular, h.roughness, wp.dot(n, v))
+                        a_d = mirror_direction(d, n, ng)
+                if max3(a_w) <= 0.0:
+                    if wp.static(environment):
+                        c += ambient_specular(scene, amb, n, v, h.specular, h.roughness)
+        elif wp.static(environment):
+            c += ambient_specular(scene, amb, n, v, h.specular, h.roughness)
+        out.radiance = wp.cw_mul(weight, c)
+        if wp.static(secondary):
+            a_w = wp.cw_mul(a_w, weight)
+            b_w = wp.cw_mul(b_w, weight)
+            a_ok = max3(a_w) >= MIN_THROUGHPUT
+            b_ok = max3(b_w) >= MIN_THROUGHPUT
+            if a_ok and b_ok and can_push:
+                # follow the heavier branch, push the other
+                if max3(b_w) > max3(a_w):
+                    out.pushed = make_ray(offset_ray_origin(h.position, ng, params.scale), a_d, a_w, depth + 1, KIND_REFLECT)
+                    a_ok = False
+                else:
+                    out.pushed = make_ray(
+                        offset_ray_origin(h.position, -ng, params.scale), b_d, b_w, depth + 1, KIND_REFRACT
+                    )
+                    b_ok = False
+            if a_ok:
+                out.next = make_ray(offset_ray_origin(h.position, ng, params.scale), a_d, a_w, depth + 1, KIND_REFLECT)
+            elif b_ok:
+                out.next = make_ray(offset_ray_origin(h.position, -ng, params.scale), b_d, b_w, depth + 1, KIND_REFRACT)
+        return out
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def trace_path(
+        scene: SceneGPU,
+        amb: AmbientGPU,
+        cam: CameraGPU,
+        params: TraceParams,
+        occ: OccluderGPU,
+        gb: GBufferArrays,
+        pixels: wp.array(dtype=wp.int32),
+        transmittance: wp.array2d(dtype=wp.vec3),
+        color: wp.array2d(dtype=wp.vec3),
+        counts: wp.array2d(dtype=wp.int32),
+        start: int,
+        step: int,
+    ):
+        item = start + wp.tid() * step
+        pixel = pixels[item]
+        if pixel < 0 or pixel >= cam.width * cam.height:
+            return
+        y = pixel_row(pixel, cam.width)
+        x = pixel - y * cam.width
+        if gb.triangle_id[y, x] < 0:
+            bg = wp.vec3(0.0, 0.0, 0.0)
+            if wp.static(environment):
+                bg = environment_radiance(scene, pixel_ray_direction(cam, x, y))
+            color[y, x] = bg
+            counts[item, 1] = 0
+            counts[item, 2] = 0
+            counts[item, 3] = 0
+            return
+
+        d = wp.normalize(gb.position[y, x] - cam.origin)
+        h = gbuffer_surface(scene, gb, y, x, d)
+        weight = wp.vec3(1.0, 1.0, 1.0)
+        depth = int(0)
+        segment = int(0)
+        radiance = wp.vec3(0.0, 0.0, 0.0)
+        shadow_rays = int(0)
+        reflect_rays = int(0)
+        refract_rays = int(0)
+        # PathStack: the pushed branches, one column per field.
+        stack_origin = _stack_vec3s()
+        stack_direction = _stack_vec3s()
+        stack_weight = _stack_vec3s()
+        stack_depth = _stack_ints()
+        stack_kind = _stack_ints()
+        stack_size = int(0)
+        have_hit = int(1)
+        while True:
+            ray = no_ray()
+            if have_hit != 0:
+                have_hit = 0
+                can_push = stack_size < wp.static(MAX_DEPTH)
+                s = shade_hit(
+                    scene, amb, params, occ, transmittance, item, pixel, segment, h, d, weight, depth, can_push
+                )
+                segment += 1
+                radiance += s.radiance
+                shadow_rays += s.shadow_rays
+                ray = s.next
+                if s.pushed.kind != KIND_NONE:
+                    stack_origin[stack_size] = s.pushed.origin
+                    stack_direction[stack_size] = s.pushed.direction
+                    stack_weight[stack_size] = s.pushed.weight
+                    stack_depth[stack_size] = s.pushed.depth
+                    stack_kind[stack_size] = s.pushed.kind
+                    stack_size += 1
+            if wp.static(not secondary):
+                break
+            if ray.kind == KIND_NONE:
+                if stack_size == 0:
+                    break
+                stack_size -= 1
+                ray = make_ray(
+                    stack_origin[stack_size],
+                    stack_direction[stack_size],
+                    stack_weight[stack_size],
+                    stack_depth[stack_size],
+                    stack_kind[stack_size],
+                )
+            if ray.kind == KIND_REFLECT:
+                reflect_rays += 1
+            else:
+                refract_rays += 1
+            hit = closest_hit(scene, params, ray.origin, ray.direction)
+            if hit.face >= 0:
+                h = surface_at(scene, hit.face, hit.u, hit.v, ray.direction)
+                d = ray.direction
+                weight = ray.weight
+                depth = ray.depth
+                have_hit = 1
+            else:
+                if wp.static(environment):
+                    radiance += wp.cw_mul(ray.weight, environment_radiance(scene, ray.direction))
+        color[y, x] = radiance
+        counts[item, 1] = shadow_rays
+        counts[item, 2] = reflect_rays
+        counts[item, 3] = refract_rays
+
+    return trace_path

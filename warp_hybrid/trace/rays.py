@@ -1,0 +1,74 @@
+"""What every traced ray shares: per-frame parameters, hits, and stepping past a surface.
+
+Ray origins are offset with ``offset.offset_ray_origin`` (Ray Tracing Gems ch. 6,
+scale-aware) along the geometric normal, to the side the ray travels to.  Pixel lists
+hold flat indices ``row * width + column``.
+"""
+
+from __future__ import annotations
+
+import warp as wp
+
+from ..core.scene_gpu import SceneGPU
+from .offset import offset_ray_origin
+
+MIN_THROUGHPUT = wp.constant(1.0e-3)
+MAX_LAYERS = wp.constant(64)
+
+
+@wp.struct
+class TraceParams:
+    """Per-frame constants: scene scale for ray offsets, path depth, shadow samples, seed."""
+
+    scale: float
+    max_depth: int
+    shadow_samples: int
+    seed: int
+
+
+@wp.struct
+class RayHit:
+    """Closest surface along a ray (``face`` -1: none)."""
+
+    face: int
+    u: float
+    v: float
+
+
+@wp.func
+def max3(c: wp.vec3) -> float:
+    """Largest component."""
+    return wp.max(c[0], wp.max(c[1], c[2]))
+
+
+@wp.func
+def is_emissive(scene: SceneGPU, face: int) -> bool:
+    """The material of ``face`` emits light (constant colour or texture)."""
+    m = scene.materials[scene.triangle_material[face]]
+    return m.emissive_tex >= 0 or max3(m.emissive) > 0.0
+
+
+@wp.func
+def triangle_position(scene: SceneGPU, face: int, u: float, v: float) -> wp.vec3:
+    """World point at barycentrics (u, v) of ``face`` (Warp's convention)."""
+    k = 3 * face
+    return (
+        scene.points[scene.indices[k]] * u
+        + scene.points[scene.indices[k + 1]] * v
+        + scene.points[scene.indices[k + 2]] * (1.0 - u - v)
+    )
+
+
+@wp.func
+def step_past(scene: SceneGPU, params: TraceParams, face: int, u: float, v: float, ng: wp.vec3, d: wp.vec3) -> wp.vec3:
+    """Origin just beyond the surface hit at (face, u, v), on the side ``d`` travels to."""
+    n = ng
+    if wp.dot(n, d) < 0.0:
+        n = -n
+    return offset_ray_origin(triangle_position(scene, face, u, v), n, params.scale)
+
+
+@wp.func
+def pixel_row(pixel: int, width: int) -> int:
+    """Row of a flat pixel index ``row * width + col``."""
+    return pixel // width

@@ -1,0 +1,219 @@
+"""Shadow rays: the RGB transmittance from a point toward a light (``@wp.func``
+factories and the primary shadow kernel).
+
+Hard shadows from the light's centre (``shadow_samples`` = 1) or N samples over the
+light's sphere/rect/disk/cone (soft: the average over the samples that leave on the
+lit side; ``lighting/light_sampling.py``).  Shadow rays pass through emissive surfaces
+(the emitter geometry of area lights) and cut-out holes.  Each is an any-hit query
+against the opaque triangles, then, if unblocked, an ordered walk through the
+transmissive/cut-out/emissive ones (``occluders.py``).  At each crossing of a
+transmissive surface the transmittance is multiplied by ``(1 - opacity) (1 - F)`` with
+F the exact dielectric Fresnel reflectance for the material's IOR at the crossing
+angle (air-to-glass at every crossing: by reciprocity this is the reflectance a
+refracted ray would meet), and by the tint once per passage
+(``optics.transmission_tint``).  The first opaque surface stops the ray
+(transmittance 0).  Straight lines, no caustics.  A light the point cannot see at all
+(below its horizon, outside a spot cone, or behind the geometric surface of an opaque
+point) gets 0 and no ray.
+
+``shadow_kernel`` (stage "trace_shadow") runs over a compacted pixel list (item
+``start + tid * step``; each item writes only its own pixel and its own row of the
+scratch arrays): per light, the transmittance into ``transmittance[item, light]`` and
+its luminance into the per-light ``visibility`` AOV.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import warp as wp
+
+from ..core.camera import CameraGPU
+from ..core.constants import luma709
+from ..core.gbuffer import GBufferArrays
+from ..core.scene_gpu import FLAG_CUTOUT, FLAG_TRANSMISSIVE, SceneGPU
+from ..lighting.brdf import fresnel_dielectric
+from ..lighting.light_sampling import center_ray_length, light_has_extent, sample_light_ray
+from ..lighting.lights import LightSample, light_sample
+from ..scene.device.surface import is_cut_away, surface_at
+from .occluders import OccluderGPU
+from .offset import offset_ray_origin
+from .optics import transmission_tint
+from .rays import MAX_LAYERS, TraceParams, is_emissive, max3, pixel_row, step_past
+
+
+@wp.struct
+class ShadowResult:
+    """Transmittance toward one light and the shadow rays it took."""
+
+    transmittance: wp.vec3
+    rays: int
+
+
+@wp.func
+def crossing_transmittance(scene: SceneGPU, face: int, u: float, v: float, d: wp.vec3) -> wp.vec3:
+    """What a shadow ray keeps crossing a transmissive surface (module docstring)."""
+    h = surface_at(scene, face, u, v, d)
+    f = fresnel_dielectric(wp.dot(h.geometric_normal, d), h.ior)
+    return transmission_tint(h) * (1.0 - f)
+
+
+@wp.func
+def light_reaches(ls_irradiance: wp.vec3, ls_e_normal: wp.vec3, n_dot_l: float) -> bool:
+    """The light contributes at all (its unshadowed response is non-zero)."""
+    return max3(ls_irradiance) > 0.0 or (n_dot_l > 0.0 and max3(ls_e_normal) > 0.0)
+
+
+def _make_transmittance_func(layered: bool, cutouts: bool):
+    """``ray_transmittance(scene, occ, params, o, d, max_t)``: any-hit against the opaque
+    BVH, then (``layered``) the ordered walk through the transmissive, cut-out and
+    emissive surfaces of the special BVH."""
+
+    @wp.func
+    def ray_transmittance(
+        scene: SceneGPU, occ: OccluderGPU, params: TraceParams, o: wp.vec3, d: wp.vec3, max_t: float
+    ) -> wp.vec3:
+        zero = wp.vec3(0.0, 0.0, 0.0)
+        t = wp.vec3(1.0, 1.0, 1.0)
+        if max_t <= 0.0:
+            return t
+        if occ.opaque != wp.uint64(0):
+            if wp.mesh_query_ray_anyhit(occ.opaque, o, d, max_t):
+                return zero
+        if wp.static(not layered):
+            return t
+        if occ.special == wp.uint64(0):
+            return t
+        origin = o
+        remaining = max_t
+        for _layer in range(MAX_LAYERS):
+            q = wp.mesh_query_ray(occ.special, origin, d, remaining)
+            if not q.result:
+                return t
+            face = occ.special_faces[q.face]
+            m = scene.materials[scene.triangle_material[face]]
+            if not is_emissive(scene, face):
+                passes = False
+                if wp.static(cutouts):
+                    if (m.flags & FLAG_CUTOUT) != 0:
+                        if not is_cut_away(scene, face, q.u, q.v):
+                            return zero
+                        passes = True
+                if not passes:
+                    if (m.flags & FLAG_TRANSMISSIVE) == 0:
+                        return zero
+                    t = wp.cw_mul(t, crossing_transmittance(scene, face, q.u, q.v, d))
+                    if max3(t) <= 0.0:
+                        return zero
+            origin = step_past(scene, params, face, q.u, q.v, q.normal, d)
+            remaining = max_t - wp.dot(origin - o, d)
+            if remaining <= 0.0:
+                return t
+        return t
+
+    return ray_transmittance
+
+
+def make_light_func(layered: bool, soft: bool, cutouts: bool):
+    """``light_transmittance(scene, params, occ, i, ls, p, n, ng, transmissive, pixel, segment)``:
+    the RGB transmittance toward light ``i`` (its sample ``ls`` at ``p``), averaged
+    over the shadow samples that leave the surface on the lit side (transmissive
+    points may send them through their far side)."""
+    ray_transmittance = _make_transmittance_func(layered, cutouts)
+
+    @wp.func
+    def light_transmittance(
+        scene: SceneGPU,
+        params: TraceParams,
+        occ: OccluderGPU,
+        light_index: int,
+        ls: LightSample,
+        p: wp.vec3,
+        n: wp.vec3,
+        ng: wp.vec3,
+        transmissive: bool,
+        pixel: int,
+        segment: int,
+    ) -> ShadowResult:
+        out = ShadowResult()
+        out.transmittance = wp.vec3(0.0, 0.0, 0.0)
+        out.rays = 0
+        if not light_reaches(ls.irradiance, ls.e_normal, wp.dot(n, ls.wi)):
+            return out
+        light = scene.lights[light_index]
+        samples = int(1)
+        if wp.static(soft):
+            if light_has_extent(light):
+                samples = params.shadow_samples
+        rng = wp.rand_init(params.seed + light_index * 7919 + segment * 104729, pixel)
+        total = wp.vec3(0.0, 0.0, 0.0)
+        for _s in range(samples):
+            d = ls.wi
+            length = center_ray_length(light, ls.distance)
+            if wp.static(soft):
+                if samples > 1:
+                    r1 = wp.randf(rng)
+                    r2 = wp.randf(rng)
+                    ray = sample_light_ray(light, p, ls.wi, ls.distance, r1, r2)
+                    d = wp.vec3(ray[0], ray[1], ray[2])
+                    length = ray[3]
+            side = ng
+            if wp.dot(d, ng) <= 0.0:
+                if not transmissive:
+                    continue
+                side = -ng
+            o = offset_ray_origin(p, side, params.scale)
+            total += ray_transmittance(scene, occ, params, o, d, length - wp.dot(o - p, d))
+            out.rays += 1
+        if out.rays > 0:
+            out.transmittance = total / float(out.rays)
+        return out
+
+    return light_transmittance
+
+
+@functools.lru_cache(maxsize=None)
+def shadow_kernel(layered: bool, soft: bool, cutouts: bool) -> wp.Kernel:
+    """The primary shadow kernel for one flag tuple (its own Warp module, cached).
+
+    Inputs: scene, cam, params, occluders, gbuffer, pixels, transmittance (items, L) vec3 out,
+    visibility (H, W, L) out, counts (items, 4) out (column 0), start, step."""
+    light_transmittance = make_light_func(layered, soft, cutouts)
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def trace_shadow(
+        scene: SceneGPU,
+        cam: CameraGPU,
+        params: TraceParams,
+        occ: OccluderGPU,
+        gb: GBufferArrays,
+        pixels: wp.array(dtype=wp.int32),
+        transmittance: wp.array2d(dtype=wp.vec3),
+        visibility: wp.array3d(dtype=wp.float32),
+        counts: wp.array2d(dtype=wp.int32),
+        start: int,
+        step: int,
+    ):
+        item = start + wp.tid() * step
+        pixel = pixels[item]
+        if pixel < 0 or pixel >= cam.width * cam.height:
+            return
+        y = pixel_row(pixel, cam.width)
+        x = pixel - y * cam.width
+        if gb.triangle_id[y, x] < 0:
+            return
+        mid = gb.material_id[y, x]
+        transmissive = (scene.materials[mid].flags & FLAG_TRANSMISSIVE) != 0
+        p = gb.position[y, x]
+        n = gb.normal[y, x]
+        ng = gb.geometric_normal[y, x]
+        rays = int(0)
+        for i in range(scene.light_count):
+            ls = light_sample(scene.lights[i], p, n)
+            r = light_transmittance(scene, params, occ, i, ls, p, n, ng, transmissive, pixel, 0)
+            transmittance[item, i] = r.transmittance
+            visibility[y, x, i] = wp.clamp(luma709(r.transmittance), 0.0, 1.0)
+            rays += r.rays
+        counts[item, 0] = rays
+
+    return trace_shadow

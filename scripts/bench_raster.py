@@ -27,12 +27,12 @@ def measure_scene(path: str, width: int, height: int, repeats: int) -> dict:
     """Measure one scene in this process; returns a JSON-ready dict."""
     import numpy as np
 
-    from warp_hybrid.parallel import Launcher
+    from warp_hybrid.core.camera import make_camera_gpu
     from warp_hybrid.core.gbuffer import GBuffer
+    from warp_hybrid.parallel import Launcher
     from warp_hybrid.primary import RayCaster
     from warp_hybrid.renderer import Renderer, RenderSettings
     from warp_hybrid.runtime import init_warp
-    from warp_hybrid.core.camera import make_camera_gpu
     from warp_hybrid.scene.open import open_scene_source
     from warp_hybrid.timing import StageTimer
 

@@ -12,7 +12,6 @@ threads, to check the launch layer's scaling.  Each scene runs in its own subpro
 
 from __future__ import annotations
 
-
 from bench_common import median_ms, run_per_scene
 
 TRACE_STAGES = ("trace_shadow", "trace_secondary")

@@ -8,7 +8,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from scene_paths import shared_scenes_dir
 
 from warp_hybrid.renderer import Renderer, RenderSettings

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 import warp as wp
 
-from warp_hybrid.scene.device.dome import specular_albedo_table
 from warp_hybrid.lighting.brdf import brdf_eval, diffuse_view_weight, fresnel_dielectric, fresnel_schlick, ggx_d
+from warp_hybrid.scene.device.dome import specular_albedo_table
 
 wp.set_module_options({"enable_backward": False})
 

@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 import warp as wp
 
+from warp_hybrid.core.camera import make_camera_gpu
+from warp_hybrid.core.gbuffer import GBuffer
 from warp_hybrid.lighting.deferred import DeferredLighting
 from warp_hybrid.parallel import Launcher
-from warp_hybrid.core.gbuffer import GBuffer
 from warp_hybrid.scene.authoring.builders import look_at_camera, make_scene, quad
-from warp_hybrid.core.camera import make_camera_gpu
 from warp_hybrid.scene.device import DeviceScene
 from warp_hybrid.scene.model import Environment, Light, LightKind, Material
 from warp_hybrid.timing import StageTimer

@@ -8,15 +8,14 @@ import numpy as np
 import pytest
 import warp as wp
 
-from warp_hybrid.scene.device.dome import radiance_mips
+from warp_hybrid.core.scene_gpu import AmbientGPU, SceneGPU
 from warp_hybrid.lighting.ambient import (
-
     dome_irradiance,
     prefiltered_radiance,
 )
 from warp_hybrid.scene.authoring.builders import make_scene, quad
-from warp_hybrid.core.scene_gpu import AmbientGPU, SceneGPU
 from warp_hybrid.scene.device import DeviceScene
+from warp_hybrid.scene.device.dome import radiance_mips
 from warp_hybrid.scene.device.environment import (
     environment_direction,
     environment_radiance,

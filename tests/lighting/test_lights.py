@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 import warp as wp
 
+from warp_hybrid.core.scene_gpu import LightGPU
 from warp_hybrid.lighting.lights import light_sample, subtended_angle
 from warp_hybrid.scene.authoring.builders import make_scene, quad
-from warp_hybrid.core.scene_gpu import LightGPU
 from warp_hybrid.scene.device import DeviceScene
 from warp_hybrid.scene.model import Light, LightKind, Material
 

@@ -20,7 +20,7 @@ def _run(device, image: np.ndarray, ev=0.0, tonemap="none", aa=False, mask=None,
     timer = StageTimer()
     with Launcher(device, threads=threads) as launcher:
         post = PostProcess(launcher)
-        out = post.run(color, ev, tonemap, aa, timer, hit_mask=mask)
+        out = post.process(color, ev, tonemap, aa, timer, hit_mask=mask).numpy()
     return out, post.last_exposure_ev, timer
 
 
@@ -128,6 +128,6 @@ def test_one_post_process_serves_several_sizes(device):
         post = PostProcess(launcher)
         for h, w in ((8, 12), (16, 10), (8, 12)):
             color = wp.array(np.full((h, w, 3), 0.5, np.float32), dtype=wp.vec3, device=device)
-            out = post.run(color, 0.0, "none", True, StageTimer())
+            out = post.process(color, 0.0, "none", True, StageTimer()).numpy()
             assert out.shape == (h, w, 3)
             np.testing.assert_array_equal(out, round(float(srgb_encode(np.array([0.5]))[0]) * 255.0))

@@ -7,11 +7,10 @@ from collections.abc import Callable
 import numpy as np
 import pytest
 
-from warp_hybrid.parallel import Launcher
-from warp_hybrid.core.gbuffer import GBuffer
-from warp_hybrid.primary import Rasterizer
-from warp_hybrid.primary import RayCaster
 from warp_hybrid.core.camera import make_camera_gpu
+from warp_hybrid.core.gbuffer import GBuffer
+from warp_hybrid.parallel import Launcher
+from warp_hybrid.primary import Rasterizer, RayCaster
 from warp_hybrid.scene.device import DeviceScene
 from warp_hybrid.scene.model import Camera, Scene
 from warp_hybrid.timing import StageTimer

@@ -7,12 +7,11 @@ from __future__ import annotations
 import numpy as np
 from scipy import ndimage
 
-from warp_hybrid.parallel import Launcher
-from warp_hybrid.core.gbuffer import GBuffer
-from warp_hybrid.primary import Rasterizer
-from warp_hybrid.primary import RayCaster
-from warp_hybrid.scene.authoring.builders import MeshInput, make_scene, quad, uv_sphere
 from warp_hybrid.core.camera import make_camera_gpu
+from warp_hybrid.core.gbuffer import GBuffer
+from warp_hybrid.parallel import Launcher
+from warp_hybrid.primary import Rasterizer, RayCaster
+from warp_hybrid.scene.authoring.builders import MeshInput, make_scene, quad, uv_sphere
 from warp_hybrid.scene.device import DeviceScene
 from warp_hybrid.scene.model import Camera, Material
 from warp_hybrid.timing import StageTimer

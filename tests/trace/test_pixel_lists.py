@@ -9,15 +9,15 @@ import pytest
 import warp as wp
 from trace_kit import ALL_FEATURES, trace_scene
 
+from warp_hybrid.core.camera import make_camera_gpu
+from warp_hybrid.core.features import SceneFeatures
+from warp_hybrid.core.gbuffer import GBuffer
 from warp_hybrid.errors import RenderSettingsError
 from warp_hybrid.lighting.deferred import DeferredLighting
 from warp_hybrid.parallel import Launcher
-from warp_hybrid.core.gbuffer import GBuffer
 from warp_hybrid.primary import Rasterizer
 from warp_hybrid.scene.authoring.builders import look_at_camera, make_scene, quad, uv_sphere
-from warp_hybrid.core.camera import make_camera_gpu
 from warp_hybrid.scene.device import DeviceScene
-from warp_hybrid.core.features import SceneFeatures
 from warp_hybrid.scene.model import Environment, Light, LightKind, Material
 from warp_hybrid.timing import StageTimer
 from warp_hybrid.trace import TraceSettings, TraceVariant

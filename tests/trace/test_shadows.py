@@ -12,11 +12,11 @@ import pytest
 import warp as wp
 from trace_kit import ALL_FEATURES, emissive, trace_variants
 
-from warp_hybrid.parallel import Launcher
+from warp_hybrid.core.camera import make_camera_gpu
 from warp_hybrid.core.gbuffer import GBuffer
+from warp_hybrid.parallel import Launcher
 from warp_hybrid.primary import Rasterizer
 from warp_hybrid.scene.authoring.builders import MeshInput, look_at_camera, make_scene, quad, uv_sphere
-from warp_hybrid.core.camera import make_camera_gpu
 from warp_hybrid.scene.device import DeviceScene
 from warp_hybrid.scene.model import Light, LightKind, Material
 from warp_hybrid.timing import StageTimer

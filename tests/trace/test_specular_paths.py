@@ -227,9 +227,7 @@ def test_mirror_shows_the_floor_with_its_shadows(device: str) -> None:
     light = Light(LightKind.DISTANT, "/sun", (3.0, 3.0, 3.0), direction=(1.0, -0.6, 0.0))
     cam = look_at_camera((0.0, 10.0, 6.0), (0.0, 10.0, 0.0), hfov_deg=30.0)
     virtual = look_at_camera((0.0, 16.0, 0.0), (0.0, 0.0, 0.0), up=(0.0, 0.0, 1.0), hfov_deg=30.0)
-    via_mirror = trace_variants(
-        make_scene(meshes + [mirror], mats, lights=[light]), cam, device, W, H
-    )
+    via_mirror = trace_variants(make_scene(meshes + [mirror], mats, lights=[light]), cam, device, W, H)
     direct = trace_variants(make_scene(meshes, mats, lights=[light]), virtual, device, W, H)
     assert np.all(via_mirror.triangle_id >= via_mirror.triangle_id.max() - 1), "the view must see only the mirror"
     seen = direct.color[:, ::-1]

@@ -7,13 +7,13 @@ from dataclasses import dataclass
 import numpy as np
 import warp as wp
 
-from warp_hybrid.parallel import Launcher
-from warp_hybrid.core.gbuffer import GBuffer
-from warp_hybrid.primary import Rasterizer
 from warp_hybrid.core.camera import make_camera_gpu
-from warp_hybrid.scene.device import DeviceScene
-from warp_hybrid.scene.authoring.builders import MeshInput
 from warp_hybrid.core.features import SceneFeatures
+from warp_hybrid.core.gbuffer import GBuffer
+from warp_hybrid.parallel import Launcher
+from warp_hybrid.primary import Rasterizer
+from warp_hybrid.scene.authoring.builders import MeshInput
+from warp_hybrid.scene.device import DeviceScene
 from warp_hybrid.scene.model import Camera, Material, Scene
 from warp_hybrid.timing import StageTimer
 from warp_hybrid.trace import RayCounts, Tracer, TraceSettings

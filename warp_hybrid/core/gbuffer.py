@@ -69,9 +69,7 @@ def _kernel_struct(name: str, ndim: int, doc: str) -> type:
 
 
 GBufferArrays = _kernel_struct("GBufferArrays", 2, "Every channel as a 2-D [row, column] array.")
-GBufferRows = _kernel_struct(
-    "GBufferRows", 1, "Every channel as a flat row-major view: pixel (x, y) at y * width + x."
-)
+GBufferRows = _kernel_struct("GBufferRows", 1, "Every channel as a flat row-major view: pixel (x, y) at y * width + x.")
 
 
 class GBuffer:

@@ -31,7 +31,6 @@ refraction.
 
 from __future__ import annotations
 
-
 import warp as wp
 
 from ..core.constants import ALPHA_MIN, INV_PI, PI, luma709

@@ -38,7 +38,7 @@ class PostProcess(RenderPass):
         self, launcher: Launcher, exposure_ev: float | None = None, tonemap: str = "aces", antialias: bool = True
     ) -> None:
         """Run on ``launcher``'s device, rows split across its threads; the other
-        arguments are what ``execute`` applies (see ``run``)."""
+        arguments are what ``execute`` applies (see ``process``)."""
         self.launcher = launcher
         self.exposure_ev = exposure_ev
         self.tonemap = tonemap
@@ -119,18 +119,6 @@ class PostProcess(RenderPass):
         frame.image = self.process(
             frame.buffers.color, self.exposure_ev, self.tonemap, self.antialias, frame.timer, frame.gbuffer.triangle_id
         )
-
-    def run(
-        self,
-        color: wp.array,
-        exposure_ev: float | None,
-        tonemap: str,
-        aa: bool,
-        timer: StageTimer,
-        hit_mask: np.ndarray | wp.array | None = None,
-    ) -> np.ndarray:
-        """``process``, then a host copy of the uint8 (H, W, 3) image."""
-        return np.array(self.process(color, exposure_ev, tonemap, aa, timer, hit_mask).numpy(), copy=True)
 
     def process(
         self,

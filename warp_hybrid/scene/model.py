@@ -132,8 +132,13 @@ class Material:
 
     def texture_slots(self) -> tuple[int, ...]:
         """Every texture slot (an index into ``Scene.textures`` or -1)."""
-        return (self.diffuse_texture, self.emissive_texture, self.roughness_texture, self.metallic_texture,
-                self.opacity_texture)
+        return (
+            self.diffuse_texture,
+            self.emissive_texture,
+            self.roughness_texture,
+            self.metallic_texture,
+            self.opacity_texture,
+        )
 
 
 @dataclass

@@ -26,6 +26,7 @@ from ..scene.device import DeviceScene
 from ..scene.model import Material
 from .offset import scene_scale
 
+
 @wp.struct
 class OccluderGPU:
     """The shadow BVHs (below): opaque triangles (any-hit) and the

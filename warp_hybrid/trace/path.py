@@ -222,7 +222,19 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
             c = h.emission + direct
             if wp.static(environment):
                 c = shade_surface(
-                    scene, amb, n, v, h.albedo, kd, h.specular, h.roughness, h.emission, h.opacity, h.ior, h.flags, direct
+                    scene,
+                    amb,
+                    n,
+                    v,
+                    h.albedo,
+                    kd,
+                    h.specular,
+                    h.roughness,
+                    h.emission,
+                    h.opacity,
+                    h.ior,
+                    h.flags,
+                    direct,
                 )
             out.radiance = wp.cw_mul(weight, c)
             return out
@@ -265,7 +277,9 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
             if a_ok and b_ok and can_push:
                 # follow the heavier branch, push the other
                 if max3(b_w) > max3(a_w):
-                    out.pushed = make_ray(offset_ray_origin(h.position, ng, params.scale), a_d, a_w, depth + 1, KIND_REFLECT)
+                    out.pushed = make_ray(
+                        offset_ray_origin(h.position, ng, params.scale), a_d, a_w, depth + 1, KIND_REFLECT
+                    )
                     a_ok = False
                 else:
                     out.pushed = make_ray(

@@ -9,11 +9,10 @@ import numpy as np
 import pytest
 import warp as wp
 
-from warp_hybrid.scene.authoring.builders import MeshInput, make_scene
 from warp_hybrid.core.scene_gpu import SceneGPU
+from warp_hybrid.scene.authoring.builders import MeshInput, make_scene
 from warp_hybrid.scene.device import DeviceScene
 from warp_hybrid.scene.device.mipmaps import mip_chain, mip_level_count, mip_level_size
-from warp_hybrid.scene.model import Environment, Material, Scene, TextureBinding, TextureImage, Wrap
 from warp_hybrid.scene.device.surface import (
     SurfaceHit,
     opacity_at,
@@ -24,6 +23,7 @@ from warp_hybrid.scene.device.surface import (
     texture_lod,
     uv_footprint,
 )
+from warp_hybrid.scene.model import Environment, Material, Scene, TextureBinding, TextureImage, Wrap
 
 
 @wp.kernel(enable_backward=False)

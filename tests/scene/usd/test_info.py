@@ -6,8 +6,8 @@ import json
 
 import numpy as np
 from pxr import UsdLux
-
 from usd_stage_kit import bind, new_stage, preview_material, unit_quad
+
 from warp_hybrid.scene.authoring.builders import look_at_camera, make_scene, quad
 from warp_hybrid.scene.model import Environment, Light, LightKind, Material
 from warp_hybrid.scene.usd.info import format_info, scene_info

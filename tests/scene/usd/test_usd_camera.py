@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 from pxr import Gf, UsdGeom
-
 from usd_stage_kit import add_mesh, new_stage, save_and_load, unit_quad
+
 from warp_hybrid.errors import RenderSettingsError
 from warp_hybrid.scene.usd.camera import FRAMING_CAMERA_NAME, select_camera
 

@@ -6,8 +6,8 @@ import cv2
 import numpy as np
 import pytest
 from pxr import Gf, UsdGeom, UsdLux
-
 from usd_stage_kit import new_stage, save_and_load, unit_quad
+
 from warp_hybrid.scene.model import LightKind, Wrap
 
 

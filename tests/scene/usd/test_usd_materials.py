@@ -8,8 +8,8 @@ import cv2
 import numpy as np
 import pytest
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade
-
 from usd_stage_kit import bind, new_stage, preview_material, save_and_load, unit_quad
+
 from warp_hybrid.scene.model import Wrap
 from warp_hybrid.scene.usd.textures import CHECKER_NAME, srgb_to_linear
 

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from pxr import Gf, Sdf, UsdGeom, Vt
-
 from usd_stage_kit import add_mesh, new_stage, save_and_load, triangle_areas, triangle_normals
+
 from warp_hybrid.scene.usd.meshes import triangulate
 
 

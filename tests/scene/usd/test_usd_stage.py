@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from pxr import Gf, Usd, UsdGeom
-
 from usd_stage_kit import add_mesh, new_stage, save_and_load, unit_quad
+
 from warp_hybrid.errors import SceneError
 from warp_hybrid.scene.open import open_scene_source
 from warp_hybrid.scene.usd.loader import UsdSceneSource, load_scene

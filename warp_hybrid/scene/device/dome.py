@@ -106,7 +106,13 @@ def dome_source(scene: Scene) -> tuple:
     if env.texture < 0:
         return (tuple(env.color), -1)
     binding = scene.textures[env.texture]
-    return (tuple(env.color), env.texture, tuple(binding.scale), tuple(binding.bias), scene.images[binding.image].pixels)
+    return (
+        tuple(env.color),
+        env.texture,
+        tuple(binding.scale),
+        tuple(binding.bias),
+        scene.images[binding.image].pixels,
+    )
 
 
 def same_dome(a: tuple, b: tuple) -> bool:

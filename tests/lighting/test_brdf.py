@@ -9,10 +9,25 @@ import numpy as np
 import pytest
 import warp as wp
 
-from warp_hybrid.lighting.brdf import brdf_eval, diffuse_view_weight, fresnel_dielectric, fresnel_schlick, ggx_d
+from warp_hybrid.lighting.brdf import (
+    brdf_diffuse,
+    brdf_specular,
+    diffuse_view_weight,
+    fresnel_dielectric,
+    fresnel_schlick,
+    ggx_d,
+)
 from warp_hybrid.scene.device.dome import specular_albedo_table
 
 wp.set_module_options({"enable_backward": False})
+
+
+@wp.func(inline=True)
+def brdf_eval(n: wp.vec3, v: wp.vec3, l: wp.vec3, albedo: wp.vec3, f0: wp.vec3, roughness: float) -> wp.vec3:
+    """The whole BRDF f(v, l) (1/sr); zero when ``l`` is below the horizon."""
+    if wp.dot(n, l) <= 0.0:
+        return wp.vec3(0.0, 0.0, 0.0)
+    return brdf_diffuse(n, v, l, albedo, f0) + brdf_specular(n, v, l, f0, roughness)
 
 
 @wp.kernel

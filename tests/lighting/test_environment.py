@@ -22,14 +22,19 @@ from warp_hybrid.scene.device.environment import (
     environment_uv,
     environment_uv_wp,
     fast_atan2,
+    sh_basis,
     sh_constant_coefficients,
-    sh_eval,
     sh_irradiance_coefficients,
     texel_directions,
 )
 from warp_hybrid.scene.model import Environment, Material, TextureBinding, TextureImage
 
 wp.set_module_options({"enable_backward": False})
+
+
+def sh_eval(coeffs: np.ndarray, dirs: np.ndarray) -> np.ndarray:
+    """Evaluate SH coefficients (9, C) at unit directions (..., 3) -> (..., C)."""
+    return sh_basis(np.asarray(dirs, dtype=np.float64)) @ np.asarray(coeffs, dtype=np.float64)
 
 
 @wp.kernel

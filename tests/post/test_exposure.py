@@ -6,9 +6,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import warp as wp
+from exposure_reference import ev_from_log_sum
 
 from warp_hybrid.parallel import Launcher
-from warp_hybrid.post.exposure import EV_LIMIT, ev_from_log_sum, pairwise_sum
+from warp_hybrid.post.exposure import EV_LIMIT, pairwise_sum
 from warp_hybrid.post.postprocess import PostProcess
 
 wp.set_module_options({"enable_backward": False})

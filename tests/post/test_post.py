@@ -7,10 +7,10 @@ import math
 import numpy as np
 import pytest
 import warp as wp
+from exposure_reference import auto_exposure_ev, log_average_luminance
 
 from warp_hybrid.parallel import Launcher
 from warp_hybrid.post.color import srgb_decode, srgb_encode
-from warp_hybrid.post.exposure import auto_exposure_ev, log_average_luminance
 from warp_hybrid.post.postprocess import PostProcess
 from warp_hybrid.timing import StageTimer
 

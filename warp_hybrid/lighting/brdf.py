@@ -141,11 +141,3 @@ def brdf_specular(n: wp.vec3, v: wp.vec3, l: wp.vec3, f0: wp.vec3, roughness: fl
     d = ggx_d(wp.max(wp.dot(n, h), 0.0), alpha)
     vis = smith_visibility(n_dot_v, n_dot_l, alpha)
     return fresnel_schlick(f0, wp.dot(v, h)) * (d * vis)
-
-
-@wp.func(inline=True)
-def brdf_eval(n: wp.vec3, v: wp.vec3, l: wp.vec3, albedo: wp.vec3, f0: wp.vec3, roughness: float) -> wp.vec3:
-    """The whole BRDF f(v, l) (1/sr); zero when ``l`` is below the horizon."""
-    if wp.dot(n, l) <= 0.0:
-        return wp.vec3(0.0, 0.0, 0.0)
-    return brdf_diffuse(n, v, l, albedo, f0) + brdf_specular(n, v, l, f0, roughness)

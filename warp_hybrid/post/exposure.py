@@ -8,20 +8,14 @@ black pixels finite), so the log-average lands on middle grey, ``key = 0.18``.
 The output stage never reads the exposure back during a frame: it sums the logs on
 the device per row (``kernels.LOG_LUMINANCE_KERNELS``, float64), then one device
 thread sums the rows (``pairwise_sum``, numpy's summation order) and applies
-``exposure_from_log_sum``, the device twin of ``ev_from_log_sum``, into an
-``Exposure`` record that the tone map reads.  The host functions here compute the
-same from numpy arrays (the reference the tests compare against); both sides take
-``KEY_VALUE``, ``LOG_DELTA`` and ``EV_LIMIT`` from here.
+``exposure_from_log_sum`` into an ``Exposure`` record that the tone map reads.  The
+tests compare it with a numpy reference (``tests/post/exposure_reference.py``); both
+take ``KEY_VALUE``, ``LOG_DELTA`` and ``EV_LIMIT`` from here.
 """
 
 from __future__ import annotations
 
-import math
-
-import numpy as np
 import warp as wp
-
-from ..core.constants import LUMA_709
 
 KEY_VALUE = 0.18
 LOG_DELTA = 1.0e-4
@@ -34,38 +28,6 @@ _PAIRWISE_BLOCK = wp.constant(128)
 _vec8d = wp.types.vector(length=8, dtype=wp.float64)
 _vec32d = wp.types.vector(length=32, dtype=wp.float64)
 _vec32i = wp.types.vector(length=32, dtype=wp.int32)
-
-
-def log_average_luminance(color: np.ndarray, mask: np.ndarray | None = None) -> float | None:
-    """``exp(mean(log(delta + Y)))`` over the finite pixels selected by ``mask``
-    ((H, W) bool, None = every pixel with Y > 0); None when no pixel qualifies."""
-    c = np.asarray(color, dtype=np.float32)
-    y = c[..., 0] * np.float32(LUMA_709[0]) + c[..., 1] * np.float32(LUMA_709[1]) + c[..., 2] * np.float32(LUMA_709[2])
-    select = np.isfinite(y)
-    select &= mask.astype(bool) if mask is not None else y > 0.0
-    if not select.any():
-        return None
-    logs = np.log(np.float32(LOG_DELTA) + np.maximum(y[select], np.float32(0.0)))
-    return float(np.exp(np.mean(logs, dtype=np.float64)))
-
-
-def ev_from_log_average(lavg: float | None, key: float = KEY_VALUE) -> float:
-    """The EV that maps the log-average luminance ``lavg`` to ``key``; 0 for None (no
-    pixel qualified).  Clamped to +-24 stops."""
-    if lavg is None or lavg <= 0.0:
-        return 0.0
-    return float(np.clip(math.log2(key / lavg), -EV_LIMIT, EV_LIMIT))
-
-
-def ev_from_log_sum(log_sum: float, count: int, key: float = KEY_VALUE) -> float:
-    """``ev_from_log_average`` from the sum and the number of the pixels' logs."""
-    return ev_from_log_average(math.exp(log_sum / count) if count > 0 else None, key)
-
-
-def auto_exposure_ev(color: np.ndarray, mask: np.ndarray | None = None, key: float = KEY_VALUE) -> float:
-    """The EV that maps the log-average luminance of ``color`` (H, W, 3, linear) to
-    ``key``; 0 when no pixel qualifies.  Clamped to +-24 stops."""
-    return ev_from_log_average(log_average_luminance(color, mask), key)
 
 
 @wp.struct
@@ -141,7 +103,8 @@ def pairwise_sum(a: wp.array(dtype=wp.float64)) -> wp.float64:
 
 @wp.func
 def exposure_from_log_sum(log_sum: wp.float64, count: wp.int64, two: wp.float64) -> Exposure:
-    """``ev_from_log_sum`` (key ``KEY_VALUE``) on the device, with its scale.
+    """The EV that maps ``exp(log_sum / count)`` to ``KEY_VALUE`` (0 when ``count`` is 0,
+    clamped to +-``EV_LIMIT``), on the device, with its scale.
 
     ``two`` must be 2.0, passed in at run time: with a literal base the compiler
     rewrites ``pow(2, ev)`` to ``exp2(ev)``, which differs from the host's

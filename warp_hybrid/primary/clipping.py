@@ -13,7 +13,7 @@ import warp as wp
 
 from ..core.camera import CameraGPU
 from ..core.scene_gpu import SceneGPU
-from .coverage import raster_triangle
+from .coverage import RasterTarget, raster_triangle
 
 GUARD_PX = wp.constant(262144.0)
 
@@ -21,6 +21,16 @@ GUARD_PX = wp.constant(262144.0)
 # float64 coordinates, and which corner (0..2) each vertex is, -1 for a cut point.
 _vec9d = wp.types.vector(length=9, dtype=wp.float64)
 _vec9i = wp.types.vector(length=9, dtype=wp.int32)
+
+
+@wp.struct
+class ProjectedPoints:
+    """The scene's points transformed once per frame: ``camera`` in camera space (x
+    right, y up, z = view depth) and, in front of the near plane, ``screen`` (x, y in
+    pixels, view depth)."""
+
+    camera: wp.array(dtype=wp.vec3)
+    screen: wp.array(dtype=wp.vec3)
 
 
 @wp.func(inline=True)
@@ -91,8 +101,7 @@ def _fan_vertex(
     tri: int,
     scene: SceneGPU,
     cam: CameraGPU,
-    screen_points: wp.array(dtype=wp.vec3),
-    camera_points: wp.array(dtype=wp.vec3),
+    pts: ProjectedPoints,
     x: wp.float64,
     y: wp.float64,
     z: wp.float64,
@@ -103,8 +112,8 @@ def _fan_vertex(
     the two paths match bit for bit; a cut point is projected from float64."""
     if corner >= 0:
         p = scene.indices[3 * tri + corner]
-        if camera_points[p][2] >= cam.near:
-            return screen_points[p]
+        if pts.camera[p][2] >= cam.near:
+            return pts.screen[p]
     return _project_f64(cam, wp.vec3d(x, y, z))
 
 
@@ -113,11 +122,8 @@ def raster_clipped(
     tri: int,
     scene: SceneGPU,
     cam: CameraGPU,
-    screen_points: wp.array(dtype=wp.vec3),
-    camera_points: wp.array(dtype=wp.vec3),
-    vis: wp.array3d(dtype=wp.uint64),
-    mode: int,
-    slot: int,
+    pts: ProjectedPoints,
+    target: RasterTarget,
 ):
     """The rare path: a triangle crossing the near plane or leaving the guard band,
     clipped to a polygon and rasterized as a fan.
@@ -185,8 +191,8 @@ def raster_clipped(
         n = m
         if n < 3:
             return
-    s0 = _fan_vertex(tri, scene, cam, screen_points, camera_points, xs[0], ys[0], zs[0], src[0])
+    s0 = _fan_vertex(tri, scene, cam, pts, xs[0], ys[0], zs[0], src[0])
     for i in range(1, n - 1):
-        s1 = _fan_vertex(tri, scene, cam, screen_points, camera_points, xs[i], ys[i], zs[i], src[i])
-        s2 = _fan_vertex(tri, scene, cam, screen_points, camera_points, xs[i + 1], ys[i + 1], zs[i + 1], src[i + 1])
-        raster_triangle(s0, s1, s2, tri, scene, cam, vis, mode, slot)
+        s1 = _fan_vertex(tri, scene, cam, pts, xs[i], ys[i], zs[i], src[i])
+        s2 = _fan_vertex(tri, scene, cam, pts, xs[i + 1], ys[i + 1], zs[i + 1], src[i + 1])
+        raster_triangle(s0, s1, s2, tri, scene, cam, target)

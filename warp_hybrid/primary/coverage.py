@@ -35,6 +35,16 @@ HALF_SUBPIXEL = wp.constant(wp.int64(128))
 NARROW_PX = wp.constant(4)
 
 
+@wp.struct
+class RasterTarget:
+    """Where coverage goes: one thread's ``slot`` of the key buffer ``keys`` (threads,
+    H, W), written as depth keys (``MODE_DEPTH``) or fragment counts (``MODE_COUNT``)."""
+
+    keys: wp.array3d(dtype=wp.uint64)
+    slot: int
+    mode: int
+
+
 @wp.func_native("""union { float f; unsigned int u; } c; c.f = x; return (uint64_t)c.u;""")
 def _float_bits(x: float) -> wp.uint64: ...
 
@@ -92,12 +102,10 @@ def raster_triangle(
     tri: int,
     scene: SceneGPU,
     cam: CameraGPU,
-    vis: wp.array3d(dtype=wp.uint64),
-    mode: int,
-    slot: int,
+    target: RasterTarget,
 ):
     """Rasterize one projected triangle (screen x, screen y, view depth per corner)
-    into ``vis[slot]``."""
+    into ``target``."""
     ax = _fixed(a[0])
     ay = _fixed(a[1])
     bx = _fixed(b[0])
@@ -190,10 +198,12 @@ def raster_triangle(
                     if cutout:
                         keep = _fragment_kept(scene, cam, tri, x, y)
                     if keep:
-                        if mode == MODE_DEPTH:
-                            wp.atomic_min(vis, slot, y, x, (_float_bits(z) << wp.uint64(32)) | wp.uint64(tri))
+                        if target.mode == MODE_DEPTH:
+                            wp.atomic_min(
+                                target.keys, target.slot, y, x, (_float_bits(z) << wp.uint64(32)) | wp.uint64(tri)
+                            )
                         else:
-                            wp.atomic_add(vis, slot, y, x, wp.uint64(1))
+                            wp.atomic_add(target.keys, target.slot, y, x, wp.uint64(1))
             wa += step_a
             wb += step_b
             wc += step_c

@@ -29,8 +29,8 @@ from ..core.constants import luma709
 from ..core.gbuffer import GBufferRows, Optics
 from ..core.scene_gpu import SceneGPU
 from ..scene.device.surface import is_cut_away, surface_at_grad
-from .clipping import in_guard_band, project, raster_clipped, to_camera
-from .coverage import EMPTY_KEY, raster_triangle
+from .clipping import ProjectedPoints, in_guard_band, project, raster_clipped, to_camera
+from .coverage import EMPTY_KEY, RasterTarget, raster_triangle
 from .hit_record import exact_hit, pixel_footprint
 
 wp.set_module_options({"enable_backward": False})
@@ -43,8 +43,7 @@ MAX_CUTOUT_LAYERS = wp.constant(32)
 def camera_points_kernel(
     scene: SceneGPU,
     cam: CameraGPU,
-    camera_points: wp.array(dtype=wp.vec3),
-    screen_points: wp.array(dtype=wp.vec3),
+    pts: ProjectedPoints,
     start: int,
     step: int,
 ):
@@ -53,33 +52,29 @@ def camera_points_kernel(
     vertex rather than once per triangle corner."""
     i = start + wp.tid() * step
     c = to_camera(cam, scene.points[i])
-    camera_points[i] = c
+    pts.camera[i] = c
     if c[2] >= cam.near:
-        screen_points[i] = project(cam, c)
+        pts.screen[i] = project(cam, c)
 
 
 @wp.kernel
 def coverage_kernel(
     scene: SceneGPU,
     cam: CameraGPU,
-    camera_points: wp.array(dtype=wp.vec3),
-    screen_points: wp.array(dtype=wp.vec3),
-    keys: wp.array3d(dtype=wp.uint64),
-    mode: int,
-    slot: int,
+    pts: ProjectedPoints,
+    target: RasterTarget,
     tri_start: int,
     tri_step: int,
 ):
     """Rasterize triangles tri_start, tri_start + tri_step, ... (corners from
-    ``camera_points_kernel``) into ``keys[slot]``: depth keys (MODE_DEPTH) or fragment
-    counts (MODE_COUNT)."""
+    ``camera_points_kernel``) into ``target``."""
     tri = tri_start + wp.tid() * tri_step
     i0 = scene.indices[3 * tri]
     i1 = scene.indices[3 * tri + 1]
     i2 = scene.indices[3 * tri + 2]
-    c0 = camera_points[i0]
-    c1 = camera_points[i1]
-    c2 = camera_points[i2]
+    c0 = pts.camera[i0]
+    c1 = pts.camera[i1]
+    c2 = pts.camera[i2]
 
     # Trivial rejects: wholly behind the near plane, beyond the far plane, or outside
     # one side plane of the view frustum.
@@ -97,14 +92,14 @@ def coverage_kernel(
         return
 
     if c0[2] >= cam.near and c1[2] >= cam.near and c2[2] >= cam.near:
-        s0 = screen_points[i0]
-        s1 = screen_points[i1]
-        s2 = screen_points[i2]
+        s0 = pts.screen[i0]
+        s1 = pts.screen[i1]
+        s2 = pts.screen[i2]
         if in_guard_band(cam, s0) and in_guard_band(cam, s1) and in_guard_band(cam, s2):
-            raster_triangle(s0, s1, s2, tri, scene, cam, keys, mode, slot)
+            raster_triangle(s0, s1, s2, tri, scene, cam, target)
             return
 
-    raster_clipped(tri, scene, cam, screen_points, camera_points, keys, mode, slot)
+    raster_clipped(tri, scene, cam, pts, target)
 
 
 @wp.func(inline=True)

@@ -26,7 +26,8 @@ from ..scene.device import DeviceScene
 from ..timing import StageTimer
 from . import kernels
 from .base import PrimaryVisibility
-from .coverage import EMPTY_KEY, MODE_COUNT, MODE_DEPTH
+from .clipping import ProjectedPoints
+from .coverage import EMPTY_KEY, MODE_COUNT, MODE_DEPTH, RasterTarget
 
 _EMPTY_KEY = int(EMPTY_KEY.value)
 
@@ -38,7 +39,7 @@ class Rasterizer(PrimaryVisibility):
         """Use ``launcher`` for the device and the host threads."""
         super().__init__(launcher)
         self._keys: wp.array | None = None
-        self._points: tuple[wp.array, wp.array] | None = None
+        self._points: ProjectedPoints | None = None
 
     def _slices(self, height: int, width: int) -> wp.array:
         """The key buffer, one (height, width) slice per thread, reused."""
@@ -47,13 +48,15 @@ class Rasterizer(PrimaryVisibility):
             self._keys = wp.empty(shape, dtype=wp.uint64, device=self.launcher.device)
         return self._keys
 
-    def _transform_points(self, scene: DeviceScene, camera: CameraGPU) -> tuple[wp.array, wp.array]:
+    def _transform_points(self, scene: DeviceScene, camera: CameraGPU) -> ProjectedPoints:
         """The scene's points in camera space and on screen (buffers reused between
         frames), see ``kernels.camera_points_kernel``."""
         count = len(scene.points)
-        if self._points is None or self._points[0].shape[0] != count:
-            self._points = tuple(wp.zeros(count, dtype=wp.vec3, device=self.launcher.device) for _ in range(2))
-        self.launcher.launch_items(kernels.camera_points_kernel, count, [scene.gpu, camera, *self._points])
+        if self._points is None or self._points.camera.shape[0] != count:
+            self._points = ProjectedPoints()
+            self._points.camera = wp.zeros(count, dtype=wp.vec3, device=self.launcher.device)
+            self._points.screen = wp.zeros(count, dtype=wp.vec3, device=self.launcher.device)
+        self.launcher.launch_items(kernels.camera_points_kernel, count, [scene.gpu, camera, self._points])
         return self._points
 
     def _rasterize(self, scene: DeviceScene, camera: CameraGPU, keys: wp.array, mode: int, clear: int) -> None:
@@ -62,16 +65,20 @@ class Rasterizer(PrimaryVisibility):
         launcher = self.launcher
         launcher.ensure_loaded(kernels.coverage_kernel)
         count = scene.scene.triangle_count
-        cam_points, screen_points = self._transform_points(scene, camera)
+        pts = self._transform_points(scene, camera)
 
         def piece(k: int, n: int) -> None:
             keys[k].fill_(clear)
             tris = (count - k + n - 1) // n
             if tris > 0:
+                target = RasterTarget()
+                target.keys = keys
+                target.slot = k
+                target.mode = mode
                 wp.launch(
                     kernels.coverage_kernel,
                     dim=tris,
-                    inputs=[scene.gpu, camera, cam_points, screen_points, keys, mode, k, k, n],
+                    inputs=[scene.gpu, camera, pts, target, k, n],
                     device=launcher.device,
                 )
 

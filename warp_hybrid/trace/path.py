@@ -35,7 +35,7 @@ import functools
 
 import warp as wp
 
-from ..core.camera import CameraGPU, pixel_ray_direction
+from ..core.camera import pixel_ray_direction
 from ..core.constants import INV_PI, SMOOTH_ROUGHNESS
 from ..core.gbuffer import GBufferArrays
 from ..core.scene_gpu import FLAG_TRANSMISSIVE, AmbientGPU, SceneGPU
@@ -44,10 +44,9 @@ from ..lighting.lights import light_sample
 from ..lighting.shading import diffuse_albedo, light_response, shade_surface
 from ..scene.device.environment import environment_radiance
 from ..scene.device.surface import SurfaceHit, is_cut_away, surface_at
-from .occluders import OccluderGPU
 from .offset import offset_ray_origin
 from .optics import make_transmission_func, mirror_direction, transmission_tint
-from .rays import MAX_LAYERS, MIN_THROUGHPUT, RayHit, TraceParams, max3, pixel_row, step_past
+from .rays import MAX_LAYERS, MIN_THROUGHPUT, RayHit, TraceFrame, TraceParams, listed_pixel, max3, step_past
 from .shadows import make_light_func
 from .variant import TraceVariant
 
@@ -137,9 +136,8 @@ def no_ray() -> Ray:
 def path_kernel(variant: TraceVariant) -> wp.Kernel:
     """The path kernel for one variant (its own Warp module, cached).
 
-    Inputs: scene, amb, cam, params, occluders, gbuffer, pixels, transmittance (items, L)
-    from the shadow kernel, color (H, W) out, counts (items, 4) out (columns 1-3), start,
-    step."""
+    Inputs: scene, amb, the call's ``TraceFrame`` (transmittance rows from the shadow
+    kernel; count columns 1-3 are written), color (H, W) out, start, step."""
     light_transmittance = make_light_func(variant.layered_shadows, variant.soft_shadows, variant.cutouts)
     transmission = make_transmission_func(variant.refractions)
     shadows = variant.shadows
@@ -172,9 +170,7 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
     def shade_hit(
         scene: SceneGPU,
         amb: AmbientGPU,
-        params: TraceParams,
-        occ: OccluderGPU,
-        transmittance: wp.array2d(dtype=wp.vec3),
+        tf: TraceFrame,
         item: int,
         pixel: int,
         segment: int,
@@ -198,7 +194,7 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
         transmissive = False
         if wp.static(transparency):
             transmissive = (h.flags & FLAG_TRANSMISSIVE) != 0
-        traced = depth < params.max_depth
+        traced = depth < tf.params.max_depth
         kd = h.albedo
         if traced:
             if transmissive:
@@ -212,9 +208,11 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
                 c = light_response(ls, n, v, kd, h.specular, h.roughness)
                 tr = wp.vec3(0.0, 0.0, 0.0)
                 if segment == 0:
-                    tr = transmittance[item, i]
+                    tr = tf.transmittance[item, i]
                 elif max3(wp.cw_mul(weight, c)) >= MIN_THROUGHPUT * INV_PI * max3(ls.e_normal):
-                    r = light_transmittance(scene, params, occ, i, ls, h.position, n, ng, transmissive, pixel, segment)
+                    r = light_transmittance(
+                        scene, tf.params, tf.occ, i, ls, h.position, n, ng, transmissive, pixel, segment
+                    )
                     tr = r.transmittance
                     out.shadow_rays += r.rays
                 direct += wp.cw_mul(c, tr)
@@ -278,53 +276,47 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
                 # follow the heavier branch, push the other
                 if max3(b_w) > max3(a_w):
                     out.pushed = make_ray(
-                        offset_ray_origin(h.position, ng, params.scale), a_d, a_w, depth + 1, KIND_REFLECT
+                        offset_ray_origin(h.position, ng, tf.params.scale), a_d, a_w, depth + 1, KIND_REFLECT
                     )
                     a_ok = False
                 else:
                     out.pushed = make_ray(
-                        offset_ray_origin(h.position, -ng, params.scale), b_d, b_w, depth + 1, KIND_REFRACT
+                        offset_ray_origin(h.position, -ng, tf.params.scale), b_d, b_w, depth + 1, KIND_REFRACT
                     )
                     b_ok = False
             if a_ok:
-                out.next = make_ray(offset_ray_origin(h.position, ng, params.scale), a_d, a_w, depth + 1, KIND_REFLECT)
+                out.next = make_ray(
+                    offset_ray_origin(h.position, ng, tf.params.scale), a_d, a_w, depth + 1, KIND_REFLECT
+                )
             elif b_ok:
-                out.next = make_ray(offset_ray_origin(h.position, -ng, params.scale), b_d, b_w, depth + 1, KIND_REFRACT)
+                out.next = make_ray(
+                    offset_ray_origin(h.position, -ng, tf.params.scale), b_d, b_w, depth + 1, KIND_REFRACT
+                )
         return out
 
     @wp.kernel(enable_backward=False, module="unique")
     def trace_path(
-        scene: SceneGPU,
-        amb: AmbientGPU,
-        cam: CameraGPU,
-        params: TraceParams,
-        occ: OccluderGPU,
-        gb: GBufferArrays,
-        pixels: wp.array(dtype=wp.int32),
-        transmittance: wp.array2d(dtype=wp.vec3),
-        color: wp.array2d(dtype=wp.vec3),
-        counts: wp.array2d(dtype=wp.int32),
-        start: int,
-        step: int,
+        scene: SceneGPU, amb: AmbientGPU, tf: TraceFrame, color: wp.array2d(dtype=wp.vec3), start: int, step: int
     ):
         item = start + wp.tid() * step
-        pixel = pixels[item]
-        if pixel < 0 or pixel >= cam.width * cam.height:
+        xy = listed_pixel(tf.pixels, item, tf.cam.width, tf.cam.height)
+        x = xy[0]
+        y = xy[1]
+        if x < 0:
             return
-        y = pixel_row(pixel, cam.width)
-        x = pixel - y * cam.width
-        if gb.triangle_id[y, x] < 0:
+        pixel = y * tf.cam.width + x
+        if tf.gb.triangle_id[y, x] < 0:
             bg = wp.vec3(0.0, 0.0, 0.0)
             if wp.static(environment):
-                bg = environment_radiance(scene, pixel_ray_direction(cam, x, y))
+                bg = environment_radiance(scene, pixel_ray_direction(tf.cam, x, y))
             color[y, x] = bg
-            counts[item, 1] = 0
-            counts[item, 2] = 0
-            counts[item, 3] = 0
+            tf.counts[item, 1] = 0
+            tf.counts[item, 2] = 0
+            tf.counts[item, 3] = 0
             return
 
-        d = wp.normalize(gb.position[y, x] - cam.origin)
-        h = gbuffer_surface(scene, gb, y, x, d)
+        d = wp.normalize(tf.gb.position[y, x] - tf.cam.origin)
+        h = gbuffer_surface(scene, tf.gb, y, x, d)
         weight = wp.vec3(1.0, 1.0, 1.0)
         depth = int(0)
         segment = int(0)
@@ -345,9 +337,7 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
             if have_hit != 0:
                 have_hit = 0
                 can_push = stack_size < wp.static(MAX_DEPTH)
-                s = shade_hit(
-                    scene, amb, params, occ, transmittance, item, pixel, segment, h, d, weight, depth, can_push
-                )
+                s = shade_hit(scene, amb, tf, item, pixel, segment, h, d, weight, depth, can_push)
                 segment += 1
                 radiance += s.radiance
                 shadow_rays += s.shadow_rays
@@ -376,7 +366,7 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
                 reflect_rays += 1
             else:
                 refract_rays += 1
-            hit = closest_hit(scene, params, ray.origin, ray.direction)
+            hit = closest_hit(scene, tf.params, ray.origin, ray.direction)
             if hit.face >= 0:
                 h = surface_at(scene, hit.face, hit.u, hit.v, ray.direction)
                 d = ray.direction
@@ -387,8 +377,8 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
                 if wp.static(environment):
                     radiance += wp.cw_mul(ray.weight, environment_radiance(scene, ray.direction))
         color[y, x] = radiance
-        counts[item, 1] = shadow_rays
-        counts[item, 2] = reflect_rays
-        counts[item, 3] = refract_rays
+        tf.counts[item, 1] = shadow_rays
+        tf.counts[item, 2] = reflect_rays
+        tf.counts[item, 3] = refract_rays
 
     return trace_path

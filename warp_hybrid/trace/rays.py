@@ -9,7 +9,10 @@ from __future__ import annotations
 
 import warp as wp
 
+from ..core.camera import CameraGPU
+from ..core.gbuffer import GBufferArrays
 from ..core.scene_gpu import SceneGPU
+from .occluders import OccluderGPU
 from .offset import offset_ray_origin
 
 MIN_THROUGHPUT = wp.constant(1.0e-3)
@@ -24,6 +27,21 @@ class TraceParams:
     max_depth: int
     shadow_samples: int
     seed: int
+
+
+@wp.struct
+class TraceFrame:
+    """What both tracing kernels share in one call: the camera, the parameters, the
+    shadow BVHs, the G-buffer, the pixel list, and the per-item scratch rows (RGB
+    transmittance per light, ray counts per kind)."""
+
+    cam: CameraGPU
+    params: TraceParams
+    occ: OccluderGPU
+    gb: GBufferArrays
+    pixels: wp.array(dtype=wp.int32)
+    transmittance: wp.array2d(dtype=wp.vec3)
+    counts: wp.array2d(dtype=wp.int32)
 
 
 @wp.struct
@@ -69,6 +87,11 @@ def step_past(scene: SceneGPU, params: TraceParams, face: int, u: float, v: floa
 
 
 @wp.func
-def pixel_row(pixel: int, width: int) -> int:
-    """Row of a flat pixel index ``row * width + col``."""
-    return pixel // width
+def listed_pixel(pixels: wp.array(dtype=wp.int32), item: int, width: int, height: int) -> wp.vec2i:
+    """(column, row) of entry ``item`` of a pixel list (flat indices ``row * width +
+    column``); (-1, -1) for an entry outside the image, which the kernels skip."""
+    pixel = pixels[item]
+    if pixel < 0 or pixel >= width * height:
+        return wp.vec2i(-1, -1)
+    y = pixel // width
+    return wp.vec2i(pixel - y * width, y)

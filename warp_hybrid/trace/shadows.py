@@ -28,9 +28,7 @@ import functools
 
 import warp as wp
 
-from ..core.camera import CameraGPU
 from ..core.constants import luma709
-from ..core.gbuffer import GBufferArrays
 from ..core.scene_gpu import FLAG_CUTOUT, FLAG_TRANSMISSIVE, SceneGPU
 from ..lighting.brdf import fresnel_dielectric
 from ..lighting.light_sampling import center_ray_length, light_has_extent, sample_light_ray
@@ -39,7 +37,7 @@ from ..scene.device.surface import is_cut_away, surface_at
 from .occluders import OccluderGPU
 from .offset import offset_ray_origin
 from .optics import transmission_tint
-from .rays import MAX_LAYERS, TraceParams, is_emissive, max3, pixel_row, step_past
+from .rays import MAX_LAYERS, TraceFrame, TraceParams, is_emissive, listed_pixel, max3, step_past
 
 
 @wp.struct
@@ -176,44 +174,31 @@ def make_light_func(layered: bool, soft: bool, cutouts: bool):
 def shadow_kernel(layered: bool, soft: bool, cutouts: bool) -> wp.Kernel:
     """The primary shadow kernel for one flag tuple (its own Warp module, cached).
 
-    Inputs: scene, cam, params, occluders, gbuffer, pixels, transmittance (items, L) vec3 out,
-    visibility (H, W, L) out, counts (items, 4) out (column 0), start, step."""
+    Inputs: scene, the call's ``TraceFrame`` (its transmittance rows and count column 0
+    are written), visibility (H, W, L) out, start, step."""
     light_transmittance = make_light_func(layered, soft, cutouts)
 
     @wp.kernel(enable_backward=False, module="unique")
-    def trace_shadow(
-        scene: SceneGPU,
-        cam: CameraGPU,
-        params: TraceParams,
-        occ: OccluderGPU,
-        gb: GBufferArrays,
-        pixels: wp.array(dtype=wp.int32),
-        transmittance: wp.array2d(dtype=wp.vec3),
-        visibility: wp.array3d(dtype=wp.float32),
-        counts: wp.array2d(dtype=wp.int32),
-        start: int,
-        step: int,
-    ):
+    def trace_shadow(scene: SceneGPU, tf: TraceFrame, visibility: wp.array3d(dtype=wp.float32), start: int, step: int):
         item = start + wp.tid() * step
-        pixel = pixels[item]
-        if pixel < 0 or pixel >= cam.width * cam.height:
+        xy = listed_pixel(tf.pixels, item, tf.cam.width, tf.cam.height)
+        x = xy[0]
+        y = xy[1]
+        if x < 0 or tf.gb.triangle_id[y, x] < 0:
             return
-        y = pixel_row(pixel, cam.width)
-        x = pixel - y * cam.width
-        if gb.triangle_id[y, x] < 0:
-            return
-        mid = gb.material_id[y, x]
+        pixel = y * tf.cam.width + x
+        mid = tf.gb.material_id[y, x]
         transmissive = (scene.materials[mid].flags & FLAG_TRANSMISSIVE) != 0
-        p = gb.position[y, x]
-        n = gb.normal[y, x]
-        ng = gb.geometric_normal[y, x]
+        p = tf.gb.position[y, x]
+        n = tf.gb.normal[y, x]
+        ng = tf.gb.geometric_normal[y, x]
         rays = int(0)
         for i in range(scene.light_count):
             ls = light_sample(scene.lights[i], p, n)
-            r = light_transmittance(scene, params, occ, i, ls, p, n, ng, transmissive, pixel, 0)
-            transmittance[item, i] = r.transmittance
+            r = light_transmittance(scene, tf.params, tf.occ, i, ls, p, n, ng, transmissive, pixel, 0)
+            tf.transmittance[item, i] = r.transmittance
             visibility[y, x, i] = wp.clamp(luma709(r.transmittance), 0.0, 1.0)
             rays += r.rays
-        counts[item, 0] = rays
+        tf.counts[item, 0] = rays
 
     return trace_shadow

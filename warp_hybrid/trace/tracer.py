@@ -34,7 +34,7 @@ from ..scene.device import DeviceScene
 from ..timing import StageTimer
 from .occluders import Occluders
 from .path import COUNT_COLUMNS, MAX_DEPTH, path_kernel
-from .rays import TraceParams
+from .rays import TraceFrame, TraceParams
 from .shadows import shadow_kernel
 from .variant import TraceVariant
 
@@ -239,20 +239,17 @@ class Tracer(RenderPass):
         transmittance, counts = self._scratch(count, lights)
         counts.zero_()
         occluders = self._occluders_for(scene, timer)
-        params = self._params(occluders)
-        occ = occluders.gpu
-        gb = gbuffer.kernel_arrays()
+        tf = TraceFrame()
+        tf.cam = camera
+        tf.params = self._params(occluders)
+        tf.occ = occluders.gpu
+        tf.gb = gbuffer.kernel_arrays()
+        tf.pixels = pixels
+        tf.transmittance = transmittance
+        tf.counts = counts
         with timer.stage("trace_shadow"):
             if self.shadow_kernel is not None and lights > 0:
-                self.launcher.launch_items(
-                    self.shadow_kernel,
-                    count,
-                    [scene.gpu, camera, params, occ, gb, pixels, transmittance, visibility_out, counts],
-                )
+                self.launcher.launch_items(self.shadow_kernel, count, [scene.gpu, tf, visibility_out])
         with timer.stage("trace_secondary"):
-            self.launcher.launch_items(
-                self.path_kernel,
-                count,
-                [scene.gpu, scene.ambient, camera, params, occ, gb, pixels, transmittance, color_out, counts],
-            )
+            self.launcher.launch_items(self.path_kernel, count, [scene.gpu, scene.ambient, tf, color_out])
         return PendingRayCounts(counts, count)

@@ -118,11 +118,6 @@ def sh_constant_coefficients(color: tuple[float, float, float] | np.ndarray) -> 
     return coeffs.astype(np.float32)
 
 
-def sh_eval(coeffs: np.ndarray, dirs: np.ndarray) -> np.ndarray:
-    """Evaluate SH coefficients (9, C) at unit directions (..., 3) -> (..., C)."""
-    return sh_basis(np.asarray(dirs, dtype=np.float64)) @ np.asarray(coeffs, dtype=np.float64)
-
-
 @wp.func(inline=True)
 def fast_atan2(y: float, x: float) -> float:
     """atan2(y, x) in float32 to about 2 ulp, with one division and no libm call (libm's

@@ -9,11 +9,13 @@ There are no module-level globals; the clock is injected.
 A frame runs the mode's passes in order (``core.passes``), each on the frame's
 ``FrameContext``: primary visibility (raster or ray cast) -> focus region (hybrid and
 full) -> deferred lighting (raster and hybrid; it skips the window's interior) ->
-tracing (hybrid and full) -> compose (hybrid) -> post.
+tracing (hybrid and full; in hybrid mode under the budget guard, ``trace.guard``, when the
+frame has a deadline) -> compose (hybrid) -> post.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -34,7 +36,8 @@ from .runtime import resolve_device
 from .scene.device import DeviceScene
 from .scene.model import Camera, Scene
 from .timing import Clock, StageTimer, perf_clock
-from .trace import Tracer, TraceSettings
+from .trace import RayTally, Tracer, TraceSettings
+from .trace.guard import GuardedTrace
 
 PRIMARY_PATHS = ("raster", "raycast")
 MODES = ("raster", "full", "hybrid")
@@ -152,14 +155,17 @@ class Renderer:
         s = self.settings
         primary_cls = Rasterizer if s.primary == "raster" else RayCaster
         passes: list[RenderPass] = [primary_cls(self.launcher)]
-        if s.mode != "raster":
-            passes.append(FocusRegionBuilder(self.launcher, s.width, s.height))
-        if s.mode != "full":
+        if s.mode == "raster":
             passes.append(DeferredLighting(self.launcher))
-        if s.mode != "raster":
-            passes.append(Tracer(self.launcher, TraceSettings(max_depth=s.max_depth, shadow_samples=s.shadow_samples)))
-        if s.mode == "hybrid":
-            passes.append(Compositor(self.launcher))
+        else:
+            focus = FocusRegionBuilder(self.launcher, s.width, s.height)
+            tracer = Tracer(self.launcher, TraceSettings(max_depth=s.max_depth, shadow_samples=s.shadow_samples))
+            passes.append(focus)
+            if s.mode == "full":
+                passes.append(tracer)
+            else:
+                lighting = DeferredLighting(self.launcher)
+                passes += [lighting, GuardedTrace(tracer, focus, lighting), Compositor(self.launcher)]
         passes.append(PostProcess(self.launcher, s.exposure_ev, s.tonemap, s.antialias))
         return passes
 
@@ -184,8 +190,13 @@ class Renderer:
 
     @property
     def tracer(self) -> Tracer | None:
-        """The tracing pass (None in raster mode)."""
-        return next((p for p in self.passes if isinstance(p, Tracer)), None)
+        """The tracer (None in raster mode)."""
+        for p in self.passes:
+            if isinstance(p, GuardedTrace):
+                return p.tracer
+            if isinstance(p, Tracer):
+                return p
+        return None
 
     def _timer(self) -> StageTimer:
         return StageTimer(clock=self.clock, sync=self._sync)
@@ -235,11 +246,14 @@ class Renderer:
         s = self.settings
         return FocusWindow(gaze=gaze, fraction=s.window_fraction, shape=s.window_shape, feather_px=s.feather_px)
 
-    def render(self, camera: Camera, window: FocusWindow | None = None) -> Frame:
+    def render(self, camera: Camera, window: FocusWindow | None = None, trace_deadline: float | None = None) -> Frame:
         """Render one frame through ``camera``.
 
         ``window`` is this frame's focus window (hybrid mode; default: the settings'
         window at the screen centre).  It is ignored in raster and full modes.
+        ``trace_deadline`` (hybrid mode): a reading of the renderer's clock (seconds) by
+        which tracing must stop; the window is then traced outward in rings until then
+        (``trace.guard``), and the stats say how much was traced.
         """
         s = self.settings
         if s.mode == "hybrid":
@@ -247,7 +261,11 @@ class Renderer:
         else:
             window = None
         frame = FrameContext(
-            camera=make_camera_gpu(camera, s.width, s.height), timer=self._timer(), buffers=self.buffers, window=window
+            camera=make_camera_gpu(camera, s.width, s.height),
+            timer=self._timer(),
+            buffers=self.buffers,
+            window=window,
+            trace_deadline=trace_deadline if s.mode == "hybrid" else None,
         )
         for p in self.passes:
             p.execute(frame)
@@ -255,7 +273,7 @@ class Renderer:
             color = self.buffers.color.numpy().astype(np.float32)
             visibility = self.buffers.visibility.numpy().astype(np.float32)
             image = np.array(frame.image.numpy(), copy=True)
-            rays = frame.rays.read() if frame.rays is not None else None
+            rays = frame.rays.counts() if frame.rays is not None else None
         stats = {
             "scene": self.scene.path,
             "camera": camera.name,
@@ -274,7 +292,20 @@ class Renderer:
         }
         if frame.region is not None and rays is not None:
             stats.update(self._trace_stats(frame, rays))
+        guard = self._guard.report if self._guard is not None else None
+        if guard is not None:
+            stats["guard"] = dataclasses.asdict(guard)
         return Frame(color=color, image=image, gbuffer=self.buffers.gbuffer, visibility=visibility, stats=stats)
+
+    @property
+    def _guard(self) -> GuardedTrace | None:
+        return next((p for p in self.passes if isinstance(p, GuardedTrace)), None)
+
+    @property
+    def tally(self) -> RayTally | None:
+        """The last frame's ray tally by screen tile (None in raster mode)."""
+        tracer = self.tracer
+        return tracer.tally if tracer is not None else None
 
     @property
     def _post(self) -> PostProcess:

@@ -33,7 +33,8 @@ class StageTimer:
     sync: Callable[[], None] | None = None
     stages_ms: dict[str, float] = field(default_factory=dict)
 
-    def _now(self) -> float:
+    def now(self) -> float:
+        """The clock's reading in seconds, after the device finished its queued work."""
         if self.sync is not None:
             self.sync()
         return self.clock()
@@ -41,11 +42,11 @@ class StageTimer:
     @contextmanager
     def stage(self, name: str) -> Iterator[None]:
         """Time the enclosed block and add it to ``stages_ms[name]``."""
-        start = self._now()
+        start = self.now()
         try:
             yield
         finally:
-            elapsed = (self._now() - start) * 1000.0
+            elapsed = (self.now() - start) * 1000.0
             self.stages_ms[name] = self.stages_ms.get(name, 0.0) + elapsed
 
     @property

@@ -61,7 +61,7 @@ def trace_scene(
         timer = StageTimer()
         counts = tracer.trace(
             ds, cam, gb, wp.array(listed, dtype=wp.int32, device=device), len(listed), color, vis, timer
-        ).read()
+        ).counts()
     return Traced(
         color.numpy(), vis.numpy(), gb.triangle_id.numpy(), gb.position.numpy(), counts, timer.stages_ms, tracer
     )

@@ -23,7 +23,7 @@ from .gbuffer import GBuffer
 if TYPE_CHECKING:
     from ..focus import FocusRegion, FocusWindow
     from ..scene.device import DeviceScene
-    from ..trace import PendingRayCounts
+    from ..trace import RayTally
 
 
 class FrameBuffers:
@@ -53,14 +53,15 @@ class FrameBuffers:
 class FrameContext:
     """Everything one frame's passes share, explicitly: the camera, the stage timer,
     the buffers, this frame's focus window, and what passes produce for later ones
-    (the focus region, the pending ray counts, the image)."""
+    (the focus region, the ray tally, the image)."""
 
     camera: CameraGPU
     timer: StageTimer
     buffers: FrameBuffers
     window: FocusWindow | None = None
+    trace_deadline: float | None = None
     region: FocusRegion | None = None
-    rays: PendingRayCounts | None = None
+    rays: RayTally | None = None
     image: Any = None
     stats: dict[str, Any] = field(default_factory=dict)
 

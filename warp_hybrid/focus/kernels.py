@@ -71,3 +71,15 @@ def focus_rows(
             t = wp.clamp(seam_distance(p, float(x) + 0.5, py) * p.inv_feather, 0.0, 1.0)
             w = wp.max(t * t * (3.0 - 2.0 * t), MIN_WEIGHT)
         weight[j, x] = w
+
+
+@wp.kernel
+def list_runs(runs: wp.array2d(dtype=wp.int32), width: int, pixels: wp.array(dtype=wp.int32), start: int, step: int):
+    """Run ``i``: row ``runs[0, i]``, columns ``[runs[1, i], runs[2, i])`` -> their flat
+    indices at ``pixels[runs[3, i]:]`` (empty runs write nothing)."""
+    i = start + wp.tid() * step
+    row = runs[0, i]
+    a = runs[1, i]
+    first = runs[3, i] - a
+    for x in range(a, runs[2, i]):
+        pixels[first + x] = row * width + x

@@ -28,7 +28,7 @@ import warp as wp
 from ..core.passes import FrameContext, RenderPass
 from ..parallel import Launcher
 from ..timing import StageTimer
-from .kernels import SHAPE_CIRCLE, SHAPE_FULL, SHAPE_RECT, FocusGPU, focus_rows
+from .kernels import SHAPE_CIRCLE, SHAPE_FULL, SHAPE_RECT, FocusGPU, focus_rows, list_runs
 from .window import FocusWindow, WindowLayout
 
 _SHAPE_CODES = {"circle": SHAPE_CIRCLE, "rect": SHAPE_RECT, "full": SHAPE_FULL}
@@ -48,6 +48,42 @@ class FocusRegion:
     count: int
     weight: wp.array
     layout: WindowLayout
+
+
+@dataclass
+class RingedRegion:
+    """A planned window's pixels in rings ordered outward from its centre, for tracing
+    under a deadline: ring k is ``pixels[ring_ends[k - 1]:ring_ends[k]]`` and the window
+    up to ring k is ``layouts[k]`` (the last one the planned window itself)."""
+
+    pixels: wp.array
+    ring_ends: list[int]
+    layouts: list[WindowLayout]
+
+
+def ring_runs(layouts: list[WindowLayout]) -> tuple[np.ndarray, list[int]]:
+    """The column runs of each ring between nested ``layouts`` (innermost first): per
+    ring and row up to two runs, outer span minus inner span, as (4, 2 * rings * H)
+    int32 rows (row, start, stop, offset in the ring-ordered list), and the list's
+    cumulative length after each ring."""
+    height = layouts[0].height
+    rows = np.arange(height, dtype=np.int64)
+    inner_a = np.zeros(height, dtype=np.int64)
+    inner_b = np.zeros(height, dtype=np.int64)
+    pieces = []
+    for layout in layouts:
+        a, b = layout.row_spans()
+        hollow = inner_b > inner_a  # the inner window covers part of this row
+        left_stop = np.where(hollow, inner_a, b)
+        right_start = np.where(hollow, inner_b, b)
+        pieces.append(np.stack([rows, a, left_stop]))
+        pieces.append(np.stack([rows, right_start, b]))
+        inner_a, inner_b = a, b
+    runs = np.concatenate(pieces, axis=1)
+    lengths = runs[2] - runs[1]
+    offsets = np.cumsum(lengths) - lengths
+    ring_ends = [int(v) for v in np.cumsum(lengths.reshape(len(layouts), -1).sum(axis=1))]
+    return np.ascontiguousarray(np.vstack([runs, offsets]).astype(np.int32)), ring_ends
 
 
 def focus_params(layout: WindowLayout) -> FocusGPU:
@@ -99,14 +135,33 @@ class FocusRegionBuilder(RenderPass):
         self._spans_host = self._spans_stage.numpy()
         self._previous = np.zeros((2, height), dtype=np.int64)
         self._full: FocusRegion | None = None
+        self._runs: wp.array | None = None
+        self._ring_pixels: wp.array | None = None
 
     def build(self, window: FocusWindow, timer: StageTimer) -> FocusRegion:
         """Lay ``window`` out on this screen and fill the pixel list and weights
         (stage ``"focus"``).  The result shares buffers with the next ``build``."""
+        return self.build_layout(window.layout(self.width, self.height), timer)
+
+    def build_layout(self, layout: WindowLayout, timer: StageTimer) -> FocusRegion:
+        """``build`` for a window already placed on this screen."""
         with timer.stage("focus"):
-            layout = window.layout(self.width, self.height)
             self._fill(layout, self._pixels, self._weight, self._previous)
             return FocusRegion(self._pixels, layout.count, self._weight, layout)
+
+    def rings(self, layout: WindowLayout, count: int, timer: StageTimer) -> RingedRegion:
+        """``layout``'s pixels in ``count`` rings of equal area ordered outward (stage
+        ``"focus"``), in buffers of their own reused by the next call."""
+        with timer.stage("focus"):
+            layouts = [layout.scaled(((k + 1) / count) ** 0.5) for k in range(count)]
+            runs, ends = ring_runs(layouts)
+            device = self.launcher.device
+            if self._runs is None or self._runs.shape != runs.shape:
+                self._runs = wp.empty(runs.shape, dtype=wp.int32, device=device)
+                self._ring_pixels = wp.empty(self.width * self.height, dtype=wp.int32, device=device)
+            self._runs.assign(runs)
+            self.launcher.launch_items(list_runs, runs.shape[1], [self._runs, self.width, self._ring_pixels])
+            return RingedRegion(self._ring_pixels, ends, layouts)
 
     def full_screen(self) -> FocusRegion:
         """A region of every pixel with weight 1 (``--mode full``); built once, in its own buffers."""

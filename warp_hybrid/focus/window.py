@@ -70,6 +70,27 @@ class WindowLayout:
         """Covered pixels over screen pixels."""
         return self.count / float(self.width * self.height)
 
+    def scaled(self, scale: float) -> WindowLayout:
+        """The same window shrunk about its (clamped) centre: half extents times
+        ``scale`` in (0, 1] (area times ``scale**2``).  A full-screen layout shrinks to a
+        rect of the screen's aspect.  Nested scales give nested pixel sets, so rings
+        between them partition the window (the budget guard traces them outward)."""
+        if not 0.0 < scale <= 1.0:
+            raise ValueError(f"scale must be in (0, 1], got {scale}")
+        if scale == 1.0:
+            return self
+        shape = "rect" if self.shape == "full" else self.shape
+        return _placed(
+            shape,
+            self.width,
+            self.height,
+            self.cx,
+            self.cy,
+            self.half_width * scale,
+            self.half_height * scale,
+            self.feather_px,
+        )
+
     def row_spans(self) -> tuple[np.ndarray, np.ndarray]:
         """Per screen row j, the covered columns ``[start[j], stop[j])`` (int64, length H;
         empty rows have start == stop == 0)."""
@@ -145,16 +166,23 @@ class FocusWindow:
             hw, hh = scale * w / 2.0, scale * h / 2.0
             cx = _clamp_centre(gx, hw, w)
             cy = _clamp_centre(gy, hh, h)
-        start, stop = _row_spans(shape, width, height, cx, cy, hw, hh)
-        lengths = stop - start
-        count = int(lengths.sum())
-        if count == 0:
-            x0 = x1 = y0 = y1 = 0
-        else:
-            rows = np.flatnonzero(lengths)
-            y0, y1 = int(rows[0]), int(rows[-1]) + 1
-            x0, x1 = int(start[rows].min()), int(stop[rows].max())
-        return WindowLayout(width, height, shape, cx, cy, hw, hh, self.feather_px, x0, x1, y0, y1, count)
+        return _placed(shape, width, height, cx, cy, hw, hh, self.feather_px)
+
+
+def _placed(
+    shape: str, width: int, height: int, cx: float, cy: float, hw: float, hh: float, feather_px: float
+) -> WindowLayout:
+    """The layout of a placed shape: its covered pixels' bounding box and count."""
+    start, stop = _row_spans(shape, width, height, cx, cy, hw, hh)
+    lengths = stop - start
+    count = int(lengths.sum())
+    if count == 0:
+        x0 = x1 = y0 = y1 = 0
+    else:
+        rows = np.flatnonzero(lengths)
+        y0, y1 = int(rows[0]), int(rows[-1]) + 1
+        x0, x1 = int(start[rows].min()), int(stop[rows].max())
+    return WindowLayout(width, height, shape, cx, cy, hw, hh, feather_px, x0, x1, y0, y1, count)
 
 
 def _clamp_centre(g: float, half: float, size: float) -> float:

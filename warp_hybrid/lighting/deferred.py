@@ -6,7 +6,9 @@ Per pixel: ``shading.shade_surface`` with the sum over the scene's lights of
 prefiltered glossy light (+ the raster approximation for transmissive materials).
 Background pixels get the dome's radiance along the camera ray (black without a dome).
 In hybrid mode the pixels of the focus window's interior (weight 1) are skipped: the
-traced layer replaces them exactly.
+traced layer replaces them exactly.  When the budget guard stopped tracing short of
+the planned window, ``refill`` shades just the skipped pixels the traced window does
+not cover after all.
 
 CPU performance notes: the kernel follows ``Launcher.launch_pixels`` (one launch item
 per row on the CPU, so the big ``SceneGPU``/``AmbientGPU`` arguments are copied once
@@ -34,6 +36,11 @@ from .shading import diffuse_albedo, direct_light, shade_surface
 # CPU; results change by rounding only.
 _CPU_FLAGS = f"{wp.config.cpu_compiler_flags or '-march=native'} -ffp-contract=fast"
 wp.set_module_options({"enable_backward": False, "cpu_compiler_flags": _CPU_FLAGS})
+
+# Which pixels ``shade_pixels`` shades.
+SHADE_ALL = wp.constant(0)
+SHADE_OUTSIDE = wp.constant(1)
+SHADE_REFILL = wp.constant(2)
 
 
 @wp.func(inline=True)
@@ -67,19 +74,24 @@ def shade_pixels(
     cam: CameraGPU,
     gb: GBufferArrays,
     skip_weight: wp.array2d(dtype=wp.float32),
-    use_skip: int,
+    refill_weight: wp.array2d(dtype=wp.float32),
+    mode: int,
     color_out: wp.array2d(dtype=wp.vec3),
     row0: int,
     row_step: int,
     cols: int,
 ):
-    """Per pixel: ``shade_pixel`` into ``color_out``, except where ``use_skip`` and the
-    skip weight is >= 1."""
+    """Per pixel: ``shade_pixel`` into ``color_out``: every pixel (``mode`` SHADE_ALL),
+    those whose skip weight is < 1 (SHADE_OUTSIDE), or only those whose skip weight is
+    >= 1 and refill weight < 1 (SHADE_REFILL)."""
     r, c = wp.tid()
     y = row0 + r * row_step
     for x in range(c * cols, wp.min(c * cols + cols, cam.width)):
-        if use_skip != 0:
-            if skip_weight[y, x] >= 1.0:
+        if mode != SHADE_ALL:
+            skipped = skip_weight[y, x] >= 1.0
+            if mode == SHADE_OUTSIDE and skipped:
+                continue
+            if mode == SHADE_REFILL and not (skipped and refill_weight[y, x] < 1.0):
                 continue
         color_out[y, x] = shade_pixel(scene, amb, cam, gb, x, y)
 
@@ -120,14 +132,47 @@ class DeferredLighting(RenderPass):
             )
         if skip_weight is not None and tuple(skip_weight.shape) != (h, w):
             raise ValueError(f"skip_weight has shape {tuple(skip_weight.shape)}, expected {(h, w)}")
+        mode = SHADE_ALL if skip_weight is None else SHADE_OUTSIDE
+        self._launch(scene, camera, gbuffer, color_out, timer, "lighting", mode, skip_weight, None)
+
+    def refill(
+        self,
+        scene: DeviceScene,
+        camera: CameraGPU,
+        gbuffer: GBuffer,
+        color_out: wp.array,
+        timer: StageTimer,
+        skipped_weight: wp.array,
+        traced_weight: wp.array,
+    ) -> None:
+        """Shade the pixels an earlier ``shade`` skipped (``skipped_weight`` >= 1) that the
+        traced window does not replace (``traced_weight`` < 1) (stage "relight")."""
+        for name, array in (("skipped_weight", skipped_weight), ("traced_weight", traced_weight)):
+            if tuple(array.shape) != (gbuffer.height, gbuffer.width):
+                raise ValueError(f"{name} has shape {tuple(array.shape)}, expected {(gbuffer.height, gbuffer.width)}")
+        self._launch(scene, camera, gbuffer, color_out, timer, "relight", SHADE_REFILL, skipped_weight, traced_weight)
+
+    def _launch(
+        self,
+        scene: DeviceScene,
+        camera: CameraGPU,
+        gbuffer: GBuffer,
+        color_out: wp.array,
+        timer: StageTimer,
+        stage: str,
+        mode: int,
+        skip_weight: wp.array | None,
+        refill_weight: wp.array | None,
+    ) -> None:
         inputs = [
             scene.gpu,
             scene.ambient,
             camera,
             gbuffer.kernel_arrays(),
             skip_weight if skip_weight is not None else self._no_skip,
-            1 if skip_weight is not None else 0,
+            refill_weight if refill_weight is not None else self._no_skip,
+            mode,
             color_out,
         ]
-        with timer.stage("lighting"):
-            self.launcher.launch_pixels(shade_pixels, h, w, inputs)
+        with timer.stage(stage):
+            self.launcher.launch_pixels(shade_pixels, gbuffer.height, gbuffer.width, inputs)

@@ -12,16 +12,15 @@ split between the launcher's threads:
 
 Which kernel variant runs follows the scene's features (``variant.TraceVariant``):
 the smallest one that covers the scene, re-chosen when a scene update changes the
-features, unless the tracer was built for fixed features.  The ray counts stay on the
-device until the caller reads them after the frame (``PendingRayCounts.read``), so a
-frame on CUDA has no host sync inside it.
+features, unless the tracer was built for fixed features.  Ray counts are tallied by
+screen tile on the device (``tally.RayTally``, accumulated over the ``trace`` calls of a
+frame) and read by the caller after the frame, so a frame has no host sync inside it.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numpy as np
 import warp as wp
 
 from ..core.camera import CameraGPU
@@ -36,6 +35,7 @@ from .occluders import Occluders
 from .path import COUNT_COLUMNS, MAX_DEPTH, path_kernel
 from .rays import TraceFrame, TraceParams
 from .shadows import shadow_kernel
+from .tally import RayTally, tally_tiles
 from .variant import TraceVariant
 
 
@@ -61,46 +61,6 @@ class TraceSettings:
             raise RenderSettingsError(f"shadow samples must be >= 1, got {self.shadow_samples}")
 
 
-@dataclass
-class RayCounts:
-    """Rays launched by one ``trace`` call (logical rays: a shadow ray stepping through
-    several transparent surfaces counts once)."""
-
-    traced_pixels: int
-    shadow: int
-    reflection: int
-    refraction: int
-
-    def to_dict(self) -> dict[str, int]:
-        """JSON-ready counts."""
-        return {
-            "traced_pixels": self.traced_pixels,
-            "shadow": self.shadow,
-            "reflection": self.reflection,
-            "refraction": self.refraction,
-        }
-
-
-@dataclass
-class PendingRayCounts:
-    """The per-item ray counts of one ``trace`` call, still on the device."""
-
-    counts: wp.array | None
-    items: int
-
-    def read(self) -> RayCounts:
-        """Copy the counts to the host (a device sync) and total them."""
-        if self.counts is None or self.items == 0:
-            return RayCounts(0, 0, 0, 0)
-        totals = self.counts.numpy()[: self.items].sum(axis=0, dtype=np.int64)
-        return RayCounts(
-            traced_pixels=int(self.items),
-            shadow=int(totals[0] + totals[1]),
-            reflection=int(totals[2]),
-            refraction=int(totals[3]),
-        )
-
-
 class Tracer(RenderPass):
     """Traces the secondary effects of a list of pixels (see the module docstring)."""
 
@@ -117,6 +77,7 @@ class Tracer(RenderPass):
         self._transmittance: wp.array | None = None
         self._counts: wp.array | None = None
         self._occluders: Occluders | None = None
+        self.tally: RayTally | None = None
 
     def _use_variant(self, variant: TraceVariant) -> None:
         """Compile (once per process) and load the kernels of ``variant``."""
@@ -134,11 +95,20 @@ class Tracer(RenderPass):
         outside the region); the ray counts go to ``frame.rays``."""
         assert self.scene is not None and frame.region is not None, "set_scene and a focus region first"
         b = frame.buffers
+        self.begin_frame(b.gbuffer.width, b.gbuffer.height)
         b.visibility.fill_(float("nan"))
         region = frame.region
         frame.rays = self.trace(
             self.scene, frame.camera, b.gbuffer, region.pixels, region.count, b.traced_color, b.visibility, frame.timer
         )
+
+    def begin_frame(self, width: int, height: int) -> RayTally:
+        """Clear the ray tally for a new ``width`` x ``height`` frame (``trace`` calls add to it)."""
+        if self.tally is None or (self.tally.width, self.tally.height) != (width, height):
+            self.tally = RayTally(width, height, self.launcher.threads, self.launcher.device)
+        else:
+            self.tally.clear()
+        return self.tally
 
     def set_scene(self, scene: DeviceScene) -> None:
         """Make the tracer ready for ``scene`` (after an update too): a variant that
@@ -220,7 +190,7 @@ class Tracer(RenderPass):
         color_out: wp.array,
         visibility_out: wp.array,
         timer: StageTimer,
-    ) -> PendingRayCounts:
+    ) -> RayTally:
         """Trace the first ``count`` pixels of ``pixels`` (int32 flat indices row * W + col).
 
         Writes ``color_out[y, x]`` (traced linear radiance) for each listed pixel and,
@@ -229,13 +199,16 @@ class Tracer(RenderPass):
         point at all); other pixels, and list entries outside the image, are
         untouched.  Stages "trace_shadow" and "trace_secondary" go to ``timer`` (and
         "trace_setup" when the shadow BVHs are built, on the first call for a scene).
-        Returns the ray counts, still on the device.  Raises ``ValueError`` on
-        mismatched shapes or a scene needing effects the tracer was not built for."""
+        The ray counts are added to the frame's tally (``begin_frame`` clears it; the
+        first call for a tracer does), which is returned, still on the device.  Raises
+        ``ValueError`` on mismatched shapes or a scene needing effects the tracer was not
+        built for."""
         self.set_scene(scene)
         lights = scene.gpu.light_count
         self._check(gbuffer, camera, pixels, count, color_out, visibility_out, lights)
+        tally = self.tally if self.tally is not None else self.begin_frame(gbuffer.width, gbuffer.height)
         if count == 0:
-            return PendingRayCounts(None, 0)
+            return tally
         transmittance, counts = self._scratch(count, lights)
         counts.zero_()
         occluders = self._occluders_for(scene, timer)
@@ -252,4 +225,8 @@ class Tracer(RenderPass):
                 self.launcher.launch_items(self.shadow_kernel, count, [scene.gpu, tf, visibility_out])
         with timer.stage("trace_secondary"):
             self.launcher.launch_items(self.path_kernel, count, [scene.gpu, scene.ambient, tf, color_out])
-        return PendingRayCounts(counts, count)
+        self.launcher.launch_items(
+            tally_tiles, count, [pixels, counts, gbuffer.width, gbuffer.height, tally.tiles_x, tally.table]
+        )
+        tally.items += count
+        return tally

@@ -1,0 +1,104 @@
+"""The budget guard: trace the focus window outward from the gaze until the deadline.
+
+A frame with a ``trace_deadline`` (the budget controller's, a clock reading) traces its
+planned window not at once but in ``RINGS`` rings of equal area, innermost first
+(``FocusRegionBuilder.rings``).  Before each ring after the first it reads the clock
+(after a device sync) and stops when the ring, at the cost the previous one took,
+would end past the deadline: a misprediction of the controller costs at most about
+one ring, never the budget.  Where tracing stopped short, the window actually traced
+is the nested window up to the last ring done: its weights are rebuilt so the feather
+lies where tracing actually stopped, and the raster lighting shades the pixels it had
+skipped inside the planned window but the traced window no longer covers
+(``DeferredLighting.refill``, stage "relight").  The innermost ring is always traced.
+A frame without a deadline is traced in one piece, as the plain ``Tracer`` pass does.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import warp as wp
+
+from ..core.passes import FrameContext, RenderPass
+from ..focus import FocusRegionBuilder
+from ..lighting.deferred import DeferredLighting
+from ..scene.device import DeviceScene
+from .tracer import Tracer
+
+#: Rings a guarded window is traced in (equal areas, so each is 1/RINGS of the window).
+RINGS = 8
+
+
+@dataclass
+class GuardReport:
+    """How a guarded frame's tracing went: rings traced of ``rings``, the planned and
+    the traced window's share of the screen, and whether the deadline cut it short."""
+
+    rings_traced: int
+    rings: int
+    planned_fraction: float
+    traced_fraction: float
+
+    @property
+    def stopped_early(self) -> bool:
+        """Tracing stopped before the planned window was done."""
+        return self.rings_traced < self.rings
+
+
+class GuardedTrace(RenderPass):
+    """The tracing pass of a hybrid frame, with the budget guard (module docstring)."""
+
+    def __init__(self, tracer: Tracer, focus: FocusRegionBuilder, lighting: DeferredLighting) -> None:
+        """Guard ``tracer``'s work, with ``focus`` for the rings and the traced window's
+        weights and ``lighting`` for the refill."""
+        self.tracer = tracer
+        self.focus = focus
+        self.lighting = lighting
+        self.report: GuardReport | None = None
+        self._skipped: wp.array | None = None
+
+    def set_scene(self, scene: DeviceScene) -> None:
+        """Draw ``scene`` (the wrapped tracer follows)."""
+        super().set_scene(scene)
+        self.tracer.set_scene(scene)
+
+    def execute(self, frame: FrameContext) -> None:
+        """Trace ``frame.region`` (the planned window), under ``frame.trace_deadline`` when
+        set; ``frame.region`` becomes the window actually traced."""
+        if frame.trace_deadline is None:
+            self.tracer.execute(frame)
+            self.report = None
+            return
+        assert self.scene is not None and frame.region is not None, "set_scene and a focus region first"
+        b = frame.buffers
+        gb = b.gbuffer
+        planned = frame.region
+        tally = self.tracer.begin_frame(gb.width, gb.height)
+        b.visibility.fill_(float("nan"))
+        rings = self.focus.rings(planned.layout, RINGS, frame.timer)
+        done = 0
+        last_s = 0.0
+        start = 0
+        for end in rings.ring_ends:
+            now = frame.timer.now()
+            if done > 0 and now + last_s > frame.trace_deadline:
+                break
+            if end > start:
+                items = rings.pixels[start:end]
+                self.tracer.trace(
+                    self.scene, frame.camera, gb, items, end - start, b.traced_color, b.visibility, frame.timer
+                )
+            last_s = frame.timer.now() - now
+            start = end
+            done += 1
+        frame.rays = tally
+        if done < RINGS:
+            if self._skipped is None or tuple(self._skipped.shape) != tuple(planned.weight.shape):
+                self._skipped = wp.empty_like(planned.weight)
+            wp.copy(self._skipped, planned.weight)
+            frame.region = self.focus.build_layout(rings.layouts[done - 1], frame.timer)
+            self.lighting.refill(
+                self.scene, frame.camera, gb, b.raster_color, frame.timer, self._skipped, frame.region.weight
+            )
+        screen = float(gb.width * gb.height)
+        self.report = GuardReport(done, RINGS, planned.count / screen, frame.region.count / screen)

@@ -1,0 +1,107 @@
+"""Ray counts by screen tile, summed on the device and read once after the frame.
+
+The tracing kernels leave per-item ray counts (shadow rays from the primary point and
+from secondary hits, reflection and refraction rays) in the tracer's scratch rows;
+``tally_tiles`` adds them into a small (slots, tiles, 4) table: pixels traced, shadow,
+reflection and refraction rays per ``TILE_PX`` tile.  On the CPU each launch piece
+(host thread) owns one slot, since Warp's CPU atomics are plain read-modify-writes; on
+CUDA one piece covers every item and the adds are atomic.  A frame reads the table
+once, after its image (``RayTally.counts`` for the totals, ``RayTally.tiles`` for the
+budget controller's cost map), so nothing inside a frame waits on the host.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import warp as wp
+
+#: Side of a screen tile in pixels (the budget controller's cost map uses the same tiles).
+TILE_PX = wp.constant(32)
+#: The tally's columns per tile.
+TALLY_COLUMNS = ("pixels", "shadow", "reflection", "refraction")
+
+
+@wp.kernel
+def tally_tiles(
+    pixels: wp.array(dtype=wp.int32),
+    counts: wp.array2d(dtype=wp.int32),
+    width: int,
+    height: int,
+    tiles_x: int,
+    tally: wp.array3d(dtype=wp.int32),
+    start: int,
+    step: int,
+):
+    """Item ``start + tid * step`` of a traced pixel list into tally slot ``start``."""
+    item = start + wp.tid() * step
+    pixel = pixels[item]
+    if pixel < 0 or pixel >= width * height:
+        return
+    y = pixel // width
+    tile = (y // TILE_PX) * tiles_x + (pixel - y * width) // TILE_PX
+    wp.atomic_add(tally, start, tile, 0, 1)
+    wp.atomic_add(tally, start, tile, 1, counts[item, 0] + counts[item, 1])
+    wp.atomic_add(tally, start, tile, 2, counts[item, 2])
+    wp.atomic_add(tally, start, tile, 3, counts[item, 3])
+
+
+@dataclass
+class RayCounts:
+    """Rays launched in a frame (logical rays: a shadow ray stepping through several
+    transparent surfaces counts once); ``traced_pixels`` counts the listed items."""
+
+    traced_pixels: int
+    shadow: int
+    reflection: int
+    refraction: int
+
+    def to_dict(self) -> dict[str, int]:
+        """JSON-ready counts."""
+        return {
+            "traced_pixels": self.traced_pixels,
+            "shadow": self.shadow,
+            "reflection": self.reflection,
+            "refraction": self.refraction,
+        }
+
+
+@dataclass
+class TileCounts:
+    """A frame's tally per screen tile: ``pixels`` (tiles_y, tiles_x) traced pixels and
+    ``rays`` (tiles_y, tiles_x, 3) shadow, reflection and refraction rays."""
+
+    pixels: np.ndarray
+    rays: np.ndarray
+
+
+class RayTally:
+    """The device table of one frame's ray counts by tile (see the module docstring)."""
+
+    def __init__(self, width: int, height: int, slots: int, device: wp.context.Device) -> None:
+        """A cleared table for a ``width`` x ``height`` screen and ``slots`` launch pieces."""
+        self.width = width
+        self.height = height
+        self.tiles_y = -(-height // TILE_PX)
+        self.tiles_x = -(-width // TILE_PX)
+        self.table = wp.zeros((slots, self.tiles_y * self.tiles_x, len(TALLY_COLUMNS)), dtype=wp.int32, device=device)
+        self.items = 0
+
+    def clear(self) -> None:
+        """Start a new frame."""
+        self.table.zero_()
+        self.items = 0
+
+    def _summed(self) -> np.ndarray:
+        return self.table.numpy().sum(axis=0, dtype=np.int64)
+
+    def counts(self) -> RayCounts:
+        """The frame's totals (reads the table: call after the frame)."""
+        totals = self._summed().sum(axis=0)
+        return RayCounts(self.items, int(totals[1]), int(totals[2]), int(totals[3]))
+
+    def tiles(self) -> TileCounts:
+        """The frame's counts per tile (reads the table: call after the frame)."""
+        per_tile = self._summed().reshape(self.tiles_y, self.tiles_x, len(TALLY_COLUMNS))
+        return TileCounts(per_tile[..., 0], per_tile[..., 1:])

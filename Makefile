@@ -1,5 +1,6 @@
 # Two commands set everything up on a fresh machine:
-#   make demo   creates .venv, installs the pinned dependencies, renders the default scene to out/
+#   make demo   creates .venv, installs the pinned dependencies, renders the default scene to out/demo.png
+#               and replays the shipped gaze trace over it at 15 FPS to out/demo.mp4 + out/stats.csv
 #   make test   same set-up, then the whole test suite (CPU device)
 PYTHON ?= python3
 VENV := .venv
@@ -20,6 +21,9 @@ demo: $(STAMP)
 	$(VENV)/bin/warp-hybrid render scenes/cornell_glass.usda -o out/demo.png \
 		--mode hybrid --gaze trace:scenes/traces/demo_gaze.csv --window 0.25 \
 		--aov-dir out/aovs --stats-json out/stats.json
+	$(VENV)/bin/warp-hybrid replay scenes/cornell_glass.usda --gaze trace:scenes/traces/demo_gaze.csv \
+		--fps 15 --duration 4 --size 320x240 --overlay \
+		--out out/demo.mp4 --stats out/stats.csv --summary-json out/summary.json
 
 test: $(STAMP)
 	$(PY) -m pytest

@@ -9,8 +9,9 @@ import resource
 import statistics
 import subprocess
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -51,15 +52,20 @@ def peak_rss_mb() -> float:
 
 
 def run_per_scene(
-    description: str, script: str, measure: Callable[[str, int, int, int], dict]
+    description: str,
+    script: str,
+    measure: Callable[..., dict],
+    options: Sequence[tuple[str, dict[str, Any]]] = (),
 ) -> tuple[argparse.Namespace, int, int, dict[str, dict]]:
     """The shared driver of the scene benchmarks.
 
-    Parses ``--scenes``, ``--size``, ``--repeats`` and ``--json``; run with the hidden
-    ``--one PATH`` it measures that scene in this process, prints the JSON and exits;
-    otherwise it runs ``script --one`` once per manifest scene in its own subprocess
-    (so peak RSS is per scene) and returns (args, width, height, results by name).
-    A scene whose subprocess fails is reported on stderr and left out.
+    Parses ``--scenes``, ``--size``, ``--repeats``, ``--json`` and the script's own
+    ``options`` (flag, ``add_argument`` keywords); run with the hidden ``--one PATH`` it
+    measures that scene in this process (``measure(path, width, height, repeats,
+    **options)``), prints the JSON and exits; otherwise it runs ``script --one`` once per
+    manifest scene in its own subprocess (so peak RSS is per scene), forwarding the
+    options, and returns (args, width, height, results by name).  A scene whose
+    subprocess fails is reported on stderr and left out.
     """
     ap = argparse.ArgumentParser(description=description)
     ap.add_argument("--scenes", nargs="*", default=None, help="manifest names (default: all)")
@@ -67,15 +73,30 @@ def run_per_scene(
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--json", default=None, help="also write the results here")
     ap.add_argument("--one", default=None, help=argparse.SUPPRESS)
+    for flag, kwargs in options:
+        ap.add_argument(flag, **kwargs)
     args = ap.parse_args()
+    extra = {flag.lstrip("-").replace("-", "_"): flag for flag, _ in options}
     width, height = (int(v) for v in args.size.split("x"))
     if args.one:
-        print(json.dumps(measure(args.one, width, height, args.repeats)))
+        values = {name: getattr(args, name) for name in extra}
+        print(json.dumps(measure(args.one, width, height, args.repeats, **values)))
         sys.exit(0)
+    forwarded = [str(v) for name, flag in extra.items() for v in (flag, getattr(args, name))]
     results = {}
     for entry in manifest_scenes(args.scenes):
         proc = subprocess.run(
-            [sys.executable, script, "--one", entry["path"], "--size", args.size, "--repeats", str(args.repeats)],
+            [
+                sys.executable,
+                script,
+                "--one",
+                entry["path"],
+                "--size",
+                args.size,
+                "--repeats",
+                str(args.repeats),
+                *forwarded,
+            ],
             capture_output=True,
             text=True,
         )

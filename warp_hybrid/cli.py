@@ -1,4 +1,4 @@
-"""Command line: ``warp-hybrid render|info|convert|gaze`` (also ``python -m warp_hybrid``).
+"""Command line: ``warp-hybrid render|replay|info|convert|gaze`` (also ``python -m warp_hybrid``).
 
 Every error the package raises on purpose (bad file, bad setting) is printed as one
 line naming the file and the problem, with exit status 2; outputs are written
@@ -8,6 +8,7 @@ atomically, so a failed run leaves no partial file behind.
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import time
 from collections.abc import Sequence
@@ -18,6 +19,7 @@ from .errors import RenderSettingsError, WarpHybridError
 from .focus import SHAPES
 from .post.postprocess import TONEMAPS
 from .renderer import MODES, PRIMARY_PATHS, RenderSettings
+from .replay.loop import LoopSettings
 from .scene.model import Scene
 
 
@@ -63,11 +65,10 @@ def resolve_gaze(text: str, scene: Scene) -> tuple[float, float]:
     return float(sample.x), float(sample.y)
 
 
-def _add_render_parser(sub: argparse._SubParsersAction) -> None:
+def _add_frame_arguments(p: argparse.ArgumentParser, window_help: str, window_default: float | None) -> None:
+    """The options every rendering command shares (size, camera, device, modes, window,
+    tracing, post), their defaults from ``RenderSettings``."""
     defaults = RenderSettings()  # the one source of the defaults (the help texts show them)
-    p = sub.add_parser("render", help="render a scene to a PNG (and optionally AOVs and statistics)")
-    p.add_argument("scene", help="USD file (.usd/.usda/.usdc/.usdz) or a mesh file trimesh reads")
-    p.add_argument("-o", "--output", required=True, help="output PNG path")
     p.add_argument(
         "--size",
         type=parse_size,
@@ -75,10 +76,7 @@ def _add_render_parser(sub: argparse._SubParsersAction) -> None:
         help=f"WIDTHxHEIGHT (default {defaults.width}x{defaults.height})",
     )
     p.add_argument("--camera", default=None, help="camera prim path (default: the first camera)")
-    p.add_argument("--time", type=float, default=None, help="USD time code (default: the stage's start)")
     p.add_argument("--device", default=defaults.device, help=f"Warp device: cpu or cuda:0 (default {defaults.device})")
-    p.add_argument("--aov-dir", default=None, help="write depth/position/normal/albedo/color .npy files here")
-    p.add_argument("--stats-json", default=None, help="write per-stage timings and counts as JSON here")
     p.add_argument("--primary", choices=PRIMARY_PATHS, default=defaults.primary, help="primary visibility path")
     p.add_argument(
         "--mode",
@@ -86,18 +84,7 @@ def _add_render_parser(sub: argparse._SubParsersAction) -> None:
         default=defaults.mode,
         help="raster: deferred shading only; full: every pixel ray traced; hybrid (default): ray traced in the focus window",
     )
-    p.add_argument(
-        "--gaze",
-        default="0.5,0.5",
-        help="where the viewer looks: X,Y normalised (origin top-left), or a gaze source spec "
-        "(e.g. trace:PATH) sampled at the frame's time (default 0.5,0.5)",
-    )
-    p.add_argument(
-        "--window",
-        type=float,
-        default=defaults.window_fraction,
-        help=f"focus window area as a fraction of the screen (0..1, default {defaults.window_fraction:g})",
-    )
+    p.add_argument("--window", type=float, default=window_default, help=window_help)
     p.add_argument(
         "--window-shape",
         choices=SHAPES,
@@ -132,6 +119,101 @@ def _add_render_parser(sub: argparse._SubParsersAction) -> None:
     )
 
 
+def _add_budget_arguments(p: argparse.ArgumentParser, fps_default: float | None) -> None:
+    """The frame-time budget options (``replay.loop.LoopSettings``)."""
+    defaults = LoopSettings()
+    p.add_argument(
+        "--fps",
+        type=float,
+        default=fps_default,
+        help="target frame rate: the budget the focus window adapts to"
+        + (f" (default {fps_default:g})" if fps_default is not None else " (default: no budget)"),
+    )
+    p.add_argument("--budget-ms", type=float, default=None, help="frame-time budget in ms (default 1000 / fps)")
+    p.add_argument(
+        "--min-window",
+        type=float,
+        default=defaults.min_window,
+        help=f"smallest adaptive window, share of the screen (default {defaults.min_window:g})",
+    )
+    p.add_argument(
+        "--max-window",
+        type=float,
+        default=defaults.max_window,
+        help=f"largest adaptive window, share of the screen (default {defaults.max_window:g})",
+    )
+
+
+def _render_settings(args: argparse.Namespace) -> RenderSettings:
+    """``RenderSettings`` from the shared frame options."""
+    defaults = RenderSettings()
+    return RenderSettings(
+        width=args.size[0],
+        height=args.size[1],
+        device=args.device,
+        mode=args.mode,
+        primary=args.primary,
+        window_fraction=args.window if args.window is not None else defaults.window_fraction,
+        window_shape=args.window_shape,
+        feather_px=args.feather,
+        max_depth=args.max_depth,
+        shadow_samples=args.shadow_samples,
+        exposure_ev=args.exposure,
+        tonemap=args.tonemap,
+        antialias=args.antialias,
+        threads=args.threads,
+    )
+
+
+def _loop_settings(args: argparse.Namespace, start: float, adaptive: bool) -> LoopSettings:
+    """``LoopSettings`` from the budget options."""
+    return LoopSettings(
+        fps=args.fps if args.fps is not None else LoopSettings().fps,
+        budget_ms=args.budget_ms,
+        adaptive=adaptive,
+        min_window=args.min_window,
+        max_window=args.max_window,
+        start=start,
+    )
+
+
+def _add_render_parser(sub: argparse._SubParsersAction) -> None:
+    defaults = RenderSettings()
+    p = sub.add_parser("render", help="render a scene to a PNG (and optionally AOVs and statistics)")
+    p.add_argument("scene", help="USD file (.usd/.usda/.usdc/.usdz) or a mesh file trimesh reads")
+    p.add_argument("-o", "--output", required=True, help="output PNG path")
+    _add_frame_arguments(
+        p,
+        f"focus window area as a fraction of the screen (0..1, default {defaults.window_fraction:g})",
+        defaults.window_fraction,
+    )
+    p.add_argument("--time", type=float, default=None, help="USD time code (default: the stage's start)")
+    p.add_argument("--aov-dir", default=None, help="write depth/position/normal/albedo/color .npy files here")
+    p.add_argument("--stats-json", default=None, help="write per-stage timings and counts as JSON here")
+    p.add_argument(
+        "--gaze",
+        default="0.5,0.5",
+        help="where the viewer looks: X,Y normalised (origin top-left), or a gaze source spec "
+        "(e.g. trace:PATH) sampled at the frame's time (default 0.5,0.5)",
+    )
+    _add_budget_arguments(p, None)
+    p.add_argument(
+        "--warm-up",
+        type=int,
+        default=5,
+        help="with --fps/--budget-ms: frames the budget controller learns from before the one written (default 5)",
+    )
+
+
+def _seconds(source: object, time_code: float | None) -> float:
+    """Seconds from the start of the stage's time range to ``time_code`` (None: 0)."""
+    if time_code is None:
+        return 0.0
+    info = source.info  # type: ignore[attr-defined]
+    start = info.time_range[0] if info.time_range else info.default_time
+    return (time_code - start) / info.time_codes_per_second
+
+
 def _cmd_render(args: argparse.Namespace) -> int:
     from .output import write_aovs, write_json, write_png
     from .renderer import Renderer
@@ -145,26 +227,14 @@ def _cmd_render(args: argparse.Namespace) -> int:
     scene = source.scene_at(args.time)
     load_ms = (time.perf_counter() - t0) * 1000.0
     camera = select_camera(scene.cameras, args.camera, source=str(args.scene))
-    settings = RenderSettings(
-        width=args.size[0],
-        height=args.size[1],
-        device=args.device,
-        mode=args.mode,
-        primary=args.primary,
-        window_fraction=args.window,
-        window_shape=args.window_shape,
-        feather_px=args.feather,
-        max_depth=args.max_depth,
-        shadow_samples=args.shadow_samples,
-        exposure_ev=args.exposure,
-        tonemap=args.tonemap,
-        antialias=args.antialias,
-        threads=args.threads,
-    )
+    settings = _render_settings(args)
     gaze = resolve_gaze(args.gaze, scene)
-    with Renderer(scene, settings) as renderer:
-        renderer.warm_up(camera)
-        frame = renderer.render(camera, renderer.default_window(gaze))
+    if args.fps is not None or args.budget_ms is not None:
+        frame = _render_on_budget(args, source, settings, gaze)
+    else:
+        with Renderer(scene, settings) as renderer:
+            renderer.warm_up(camera)
+            frame = renderer.render(camera, renderer.default_window(gaze))
     frame.stats["setup_ms"] = {"load": load_ms, **frame.stats["setup_ms"]}
     write_png(args.output, frame.image)
     if args.aov_dir:
@@ -177,6 +247,132 @@ def _cmd_render(args: argparse.Namespace) -> int:
     print(
         f"{args.output}: {settings.width}x{settings.height}, {scene.triangle_count} triangles, frame {frame.stats['frame_ms']:.1f} ms ({stages})"
     )
+    return 0
+
+
+def _render_on_budget(args: argparse.Namespace, source: object, settings: RenderSettings, gaze: tuple[float, float]):
+    """``render --fps``: the adaptive loop learns on ``--warm-up`` frames of the still
+    scene, then renders the frame written; its stats get a ``budget`` entry."""
+    from gaze.source import GazeSample
+
+    from .replay.loop import AdaptiveLoop
+
+    if args.warm_up < 0:
+        raise RenderSettingsError(f"--warm-up must be >= 0, got {args.warm_up}")
+    t = _seconds(source, args.time)
+    sample = GazeSample(gaze[0], gaze[1], t)
+    loop_settings = _loop_settings(args, t, adaptive=args.mode == "hybrid")
+    with AdaptiveLoop(source, settings, loop_settings, camera_path=args.camera) as loop:
+        loop.renderer.warm_up(loop.camera)
+        for _ in range(args.warm_up):
+            loop.step(t, sample)
+        last = loop.step(t, sample)
+    frame = last.frame
+    plan = last.plan
+    frame.stats["frame_ms"] = last.frame_ms
+    frame.stats["budget"] = {
+        "budget_ms": last.budget_ms,
+        "frame_ms": last.frame_ms,
+        "within_budget": last.within_budget,
+        "window_fraction": last.window_fraction,
+        "traced_fraction": last.traced_fraction,
+        "warm_up_frames": args.warm_up,
+        "predicted_frame_ms": plan.predicted_frame_ms if plan else None,
+        "infeasible": plan.infeasible if plan else None,
+        "reason": plan.reason if plan else None,
+    }
+    return frame
+
+
+def _add_replay_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "replay",
+        help="replay a gaze trace over a scene at a fixed frame rate, the window adapting to the budget, to video",
+    )
+    p.add_argument("scene", help="USD file (.usd/.usda/.usdc/.usdz) or a mesh file trimesh reads")
+    p.add_argument("--gaze", required=True, help="gaze source spec (trace:PATH, fixed:X,Y, webcam:..., cursor)")
+    _add_budget_arguments(p, LoopSettings().fps)
+    length = p.add_mutually_exclusive_group()
+    length.add_argument("--frames", type=int, default=None, help="frames to render")
+    length.add_argument(
+        "--duration",
+        type=float,
+        default=None,
+        help="seconds to render (default: the stage's time range, else the gaze trace's length, else 5)",
+    )
+    p.add_argument("--start", type=float, default=0.0, help="first frame's time, seconds from the stage's start")
+    _add_frame_arguments(
+        p,
+        "a fixed focus window (share of the screen) instead of the budget controller's (default: adaptive)",
+        None,
+    )
+    p.add_argument("--out", default=None, help="H.264 MP4 video of the frames")
+    p.add_argument("--stats", default=None, help="per-frame stats CSV")
+    p.add_argument("--summary-json", default=None, help="the summary as JSON")
+    p.add_argument("--overlay", action="store_true", help="draw the focus window and the gaze point on the video")
+    p.add_argument("--frames-dir", default=None, help="also write each frame as a PNG here")
+    p.add_argument("--warm-up", type=int, default=3, help="untimed frames before the replay (default 3)")
+
+
+def _replay_frames(args: argparse.Namespace, source: object, gaze_source: object) -> int:
+    """How many frames ``replay`` renders (``--frames``, ``--duration`` or the default)."""
+    if args.frames is not None:
+        if args.frames < 1:
+            raise RenderSettingsError(f"--frames must be >= 1, got {args.frames}")
+        return args.frames
+    duration = args.duration
+    if duration is None:
+        info = source.info  # type: ignore[attr-defined]
+        if info.time_range and info.time_range[1] > info.time_range[0]:
+            duration = (info.time_range[1] - info.time_range[0]) / info.time_codes_per_second - args.start
+        else:
+            duration = getattr(gaze_source, "duration", None) or 5.0
+    fps = args.fps if args.fps is not None else LoopSettings().fps
+    if not (duration > 0.0 and math.isfinite(duration)):
+        raise RenderSettingsError(f"--duration must be positive, got {duration}")
+    return max(1, int(round(duration * fps)))
+
+
+def _cmd_replay(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from gaze.factory import open_source
+
+    from .replay.loop import AdaptiveLoop
+    from .replay.run import ReplayOutputs, replay
+    from .replay.summary import format_summary
+    from .runtime import init_warp
+    from .scene.open import open_scene_source
+
+    if not (args.out or args.stats or args.summary_json or args.frames_dir):
+        raise RenderSettingsError("replay writes nothing: give --out, --stats, --summary-json or --frames-dir")
+    if args.warm_up < 0:
+        raise RenderSettingsError(f"--warm-up must be >= 0, got {args.warm_up}")
+    init_warp()
+    source = open_scene_source(args.scene)
+    settings = _render_settings(args)
+    loop_settings = _loop_settings(args, args.start, adaptive=args.window is None)
+    outputs = ReplayOutputs(
+        video=Path(args.out) if args.out else None,
+        stats=Path(args.stats) if args.stats else None,
+        summary_json=Path(args.summary_json) if args.summary_json else None,
+        frames_dir=Path(args.frames_dir) if args.frames_dir else None,
+        overlay=args.overlay,
+    )
+    with open_source(args.gaze) as gaze_source:
+        frames = _replay_frames(args, source, gaze_source)
+        with AdaptiveLoop(source, settings, loop_settings, camera_path=args.camera) as loop:
+            result = replay(loop, gaze_source, frames, outputs, warm_up=args.warm_up)
+    for w in source.warnings:
+        print(f"warning: {w}", file=sys.stderr)
+    if result.gaze_failure:
+        print(
+            f"warning: the gaze source failed mid-replay ({result.gaze_failure}); held its last point", file=sys.stderr
+        )
+    print(format_summary(result.summary))
+    if result.interrupted:
+        print(f"interrupted after {result.frames} frames; outputs hold the frames done", file=sys.stderr)
+        return 130
     return 0
 
 
@@ -215,12 +411,13 @@ def _cmd_convert(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """The full argument parser (render, info, convert, gaze)."""
+    """The full argument parser (render, replay, info, convert, gaze)."""
     from gaze.cli import add_gaze_parser
 
     parser = argparse.ArgumentParser(prog="warp-hybrid", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
     _add_render_parser(sub)
+    _add_replay_parser(sub)
     _add_info_parser(sub)
     _add_convert_parser(sub)
     add_gaze_parser(sub)
@@ -234,7 +431,13 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     parser = build_parser()
     args = parser.parse_args(argv)
-    commands = {"render": _cmd_render, "info": _cmd_info, "convert": _cmd_convert, "gaze": run_gaze}
+    commands = {
+        "render": _cmd_render,
+        "replay": _cmd_replay,
+        "info": _cmd_info,
+        "convert": _cmd_convert,
+        "gaze": run_gaze,
+    }
     try:
         return commands[args.command](args)
     except (WarpHybridError, GazeError) as exc:

@@ -12,6 +12,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field, fields
 from typing import TYPE_CHECKING
 
+import numpy as np
+
 if TYPE_CHECKING:
     from ..scene.model import Scene
 
@@ -53,7 +55,7 @@ class SceneFeatures:
 
 def analyse_features(scene: Scene) -> SceneFeatures:
     """The effects ``scene``'s used materials and its lights call for."""
-    used = {int(m) for m in set(scene.triangle_material.tolist())} if scene.triangle_count else set()
+    used = {int(m) for m in np.unique(scene.triangle_material)} if scene.triangle_count else set()
     mats = [scene.materials[i] for i in sorted(used) if 0 <= i < len(scene.materials)]
     return SceneFeatures(
         shadows=bool(scene.lights),

@@ -53,7 +53,7 @@ class Occluders:
         self.scene = scene
         self._geometry_version = scene.geometry_version
         self.scale = scene_scale(scene.scene.bounds)
-        self._materials = scene.scene.materials
+        self._materials_version = scene.materials_version
         special_mat = np.array([lets_light_through(m) for m in scene.scene.materials] or [False], dtype=bool)
         tri_mat = np.asarray(scene.scene.triangle_material, dtype=np.int64)
         special = special_mat[tri_mat] if len(tri_mat) else np.zeros(0, dtype=bool)
@@ -86,7 +86,7 @@ class Occluders:
     def matches(self, scene: DeviceScene) -> bool:
         """Whether these BVHs split ``scene``'s triangles as its materials do now (a
         material update can move triangles between the two meshes)."""
-        return scene is self.scene and self._materials is scene.scene.materials
+        return scene is self.scene and self._materials_version == scene.materials_version
 
     def refresh(self) -> None:
         """Refit the BVHs (and update ``scale``) if the scene's points moved since the

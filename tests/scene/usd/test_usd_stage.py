@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from pxr import Gf, Usd, UsdGeom
-from usd_stage_kit import add_mesh, new_stage, save_and_load, unit_quad
+from usd_stage_kit import add_mesh, new_stage, save_and_load, static_and_moving_quads, unit_quad
 
 from warp_hybrid.errors import SceneError
 from warp_hybrid.scene.open import open_scene_source
@@ -123,13 +123,7 @@ def test_missing_sublayer_is_a_warning(tmp_path):
 
 
 def test_scene_at_reuses_static_data_and_updates_animated_points(tmp_path):
-    stage, path = new_stage(tmp_path)
-    unit_quad(stage, "/World/Static")
-    mover = UsdGeom.Xform.Define(stage, "/World/Mover")
-    op = mover.AddTranslateOp()
-    op.Set(Gf.Vec3d(0, 0, 0), 0.0)
-    op.Set(Gf.Vec3d(0, 4, 0), 8.0)
-    unit_quad(stage, "/World/Mover/Q")
+    stage, path = static_and_moving_quads(tmp_path)
     wobble = add_mesh(stage, "/World/Wobble", [(0, 0, 0), (1, 0, 0), (0, 1, 0)], [3], [0, 1, 2])
     wobble.GetPointsAttr().Set([Gf.Vec3f(0, 0, 0), Gf.Vec3f(1, 0, 0), Gf.Vec3f(0, 1, 0)], 0.0)
     wobble.GetPointsAttr().Set([Gf.Vec3f(0, 0, 0), Gf.Vec3f(3, 0, 0), Gf.Vec3f(0, 1, 0)], 8.0)

@@ -51,6 +51,18 @@ def unit_quad(stage: Usd.Stage, path: str, z: float = 0.0, size: float = 1.0) ->
     return add_mesh(stage, path, [(0, 0, z), (s, 0, z), (s, s, z), (0, s, z)], [4], [0, 1, 2, 3])
 
 
+def static_and_moving_quads(tmp_path: Path) -> tuple[Usd.Stage, Path]:
+    """A stage with the quads /World/Static and /World/Mover/Q; /World/Mover is translated
+    from (0, 0, 0) at time 0 to (0, 4, 0) at time 8."""
+    stage, path = new_stage(tmp_path)
+    unit_quad(stage, "/World/Static")
+    op = UsdGeom.Xform.Define(stage, "/World/Mover").AddTranslateOp()
+    op.Set(Gf.Vec3d(0, 0, 0), 0.0)
+    op.Set(Gf.Vec3d(0, 4, 0), 8.0)
+    unit_quad(stage, "/World/Mover/Q")
+    return stage, path
+
+
 def preview_material(stage: Usd.Stage, path: str, **inputs) -> tuple[UsdShade.Material, UsdShade.Shader]:
     """A material with a UsdPreviewSurface; ``inputs`` are constant values
     (tuples of 3 become color3f, ints int, floats float)."""

@@ -6,8 +6,9 @@ struct kernels take.  ``DeviceScene.update`` takes the same scene at another tim
 copies moved points and normals and *refits* the ``wp.Mesh`` BVH instead of
 rebuilding it, re-uploads lights, materials, textures and the dome when they changed,
 re-analyses the features, and refuses clearly when the topology changed.
-``geometry_version`` counts point updates, so passes that keep derived BVHs (the
-tracer's shadow meshes) know when to refit theirs.
+``geometry_version`` counts point updates and ``materials_version`` material uploads,
+so passes that keep derived data (the tracer's shadow meshes) know when to refit or
+rebuild theirs.
 """
 
 from __future__ import annotations
@@ -176,6 +177,7 @@ class DeviceScene:
         timer = timer or StageTimer()
         self.device = wp.get_device(device)
         self.geometry_version = 0
+        self.materials_version = 0
         with timer.stage("upload"):
             self.scene = scene
             self.features = analyse_features(scene)
@@ -197,6 +199,7 @@ class DeviceScene:
 
     def _upload_materials(self, scene: Scene) -> None:
         self.materials = _struct_array([_material_gpu(m) for m in scene.materials], MaterialGPU, self.device)
+        self.materials_version += 1
 
     def _upload_textures(self, scene: Scene) -> None:
         texels, structs = pack_textures(scene)
@@ -254,11 +257,17 @@ class DeviceScene:
             self.corner_normals.assign(_f32(scene.corner_normals, 3))
         self.scene = scene
         self._upload_lights(scene)
-        if scene.materials != old.materials:
+        materials_changed = scene.materials is not old.materials and scene.materials != old.materials
+        if materials_changed:
             self._upload_materials(scene)
         if _texture_source(scene) != self._texture_source:
             self._upload_textures(scene)
         if not same_dome(dome_source(scene), self._dome_source):
             self._upload_dome(scene)
-        self.features = analyse_features(scene)
+        # The features follow the used materials (the triangles' are unchanged), whether
+        # there are lights and whether there is a dome: re-analysed only when those change.
+        if materials_changed or bool(scene.lights) != bool(old.lights) or (scene.environment is None) != (
+            old.environment is None
+        ):
+            self.features = analyse_features(scene)
         self.gpu = self._make_struct()

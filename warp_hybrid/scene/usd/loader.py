@@ -1,11 +1,30 @@
 """USD stage -> host ``Scene``: traversal, instancing, caching across time codes.
 
 ``load_scene(path, time)`` is the one-shot entry point; ``UsdSceneSource`` keeps the
-stage open for animation: ``scene_at(t)`` re-evaluates only what may change over time
-(meshes whose points/topology/normals or transforms are time-sampled, instancers,
-lights, cameras) and reuses cached world-space data for the rest, so successive
-frames have the same topology (``DeviceScene.update`` refits instead of rebuilding)
-as long as visibility, topology and instance counts are not themselves animated.
+stage open for animation.  Its first ``scene_at(t)`` is a full evaluation: it traverses
+the stage, reads every mesh (static meshes' local and world data are cached) and
+records what may vary over time.  Later calls take the fast path (``_update``) and
+re-evaluate only that, reusing the previous scene's arrays for everything else:
+
+* meshes whose transform (any ancestor) or points/topology/normals are time-varying,
+  and PointInstancers whose instance attributes, own or prototype transforms vary:
+  their points, normals (and, where they changed, indices, uvs, materials) are written
+  at their ``MeshRange`` offsets into copies of the previous arrays; an array none of
+  them changed is the previous scene's array itself, so a stage where nothing is
+  animated returns the very same arrays at every time (``DeviceScene.update`` skips
+  the copy by identity).  The arrays are read-only: scenes of one source share them.
+* lights (all re-read when any light's attributes or transform vary) and cameras
+  (each re-read when its attributes or transform vary);
+* visibility: the time-varying ``visibility`` attributes are read at the new time and
+  compared with the last traversal's values.
+
+When a visibility value, an instancer's instance lists or a mesh's point or triangle
+count differs (what appears, disappears or changes topology), the call falls back to a
+full evaluation, so its result and errors are those of the full path (``DeviceScene.update``
+then refuses the changed topology as before).  Materials, displayColor and the uvs of
+static meshes are read once (at the first time evaluated), as before.  Successive frames
+have the same topology (``DeviceScene.update`` refits instead of rebuilding) as long as
+visibility, topology and instance counts are not themselves animated.
 
 Traversal (``Usd.TraverseInstanceProxies``, so instanceable prims come through as
 instance proxies and share one triangulation per prototype mesh):
@@ -29,10 +48,10 @@ while the source is open.
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
-from pxr import Usd, UsdGeom, UsdLux, UsdShade
+from pxr import Sdf, Usd, UsdGeom, UsdLux, UsdShade
 
 from ...errors import SceneError
 from ..model import Camera, Material, MeshRange, Scene
@@ -55,6 +74,7 @@ _INSTANCER_ATTRS = (
     "angularVelocities",
     "invisibleIds",
 )
+_GEOMETRY = ("points", "indices", "corner_normals", "corner_uvs", "triangle_material")
 
 
 @dataclass
@@ -80,10 +100,95 @@ class _Part:
 
 
 @dataclass
+class _Instancer:
+    """A PointInstancer's items ``items[start:stop]``; ``rerun``: its instance or
+    prototype transforms may vary, so later times evaluate it again."""
+
+    prim: Usd.Prim
+    xanim: bool
+    start: int
+    stop: int
+    rerun: bool
+
+
+@dataclass
 class _Traversal:
+    """What one traversal found, and what of it may vary over time: ``visibility``
+    holds the time-varying visibility attributes (by path) with the value read;
+    ``cameras_vary[i]`` tells whether ``cameras[i]`` may vary."""
+
     items: list[_Item]
     lights: list[Usd.Prim]
     cameras: list[Usd.Prim]
+    instancers: list[_Instancer]
+    visibility: dict[Sdf.Path, tuple[Usd.Attribute, object]]
+    lights_vary: bool
+    cameras_vary: list[bool]
+
+
+@dataclass
+class _Frame:
+    """The last scene returned, with the traversal and the per-item parts it was made of
+    (``parts[i]`` lies at ``first_point[i]`` / ``first_triangle[i]``).  ``dynamic``: the
+    items whose part may vary; ``retransform``: the mesh items (not instancer items)
+    whose transform may vary."""
+
+    scene: Scene
+    trav: _Traversal
+    parts: list[_Part]
+    first_point: list[int]
+    first_triangle: list[int]
+    dynamic: list[int]
+    retransform: list[int]
+
+
+class _Patch:
+    """Copy-on-write of a scene's geometry arrays: ``write`` puts a part's data at its
+    offsets, copying an array the first time one of its slices changes; an array whose
+    slices all hold the same bits stays the previous scene's array itself."""
+
+    def __init__(self, scene: Scene) -> None:
+        self.arrays = {name: getattr(scene, name) for name in _GEOMETRY}
+        self.finite = True
+        self._copied: set[str] = set()
+
+    def write(self, part: _Part, first_point: int, first_triangle: int) -> None:
+        w = part.world
+        self._put("points", first_point, w.points)
+        self._put("indices", first_triangle, w.tri_points + first_point)
+        self._put("corner_normals", first_triangle, w.corner_normals)
+        self._put("corner_uvs", first_triangle, w.corner_uvs)
+        self._put("triangle_material", first_triangle, part.triangle_material)
+        self.finite = self.finite and all(np.isfinite(a).all() for a in (w.points, w.corner_normals, w.corner_uvs))
+
+    def _put(self, name: str, first: int, values: np.ndarray) -> None:
+        arr = self.arrays[name]
+        values = np.ascontiguousarray(values, dtype=arr.dtype)
+        view = arr[first : first + len(values)]
+        if np.array_equal(view.view(np.int32), values.view(np.int32)):  # every dtype is 4 bytes; -0.0 != 0.0
+            return
+        if name not in self._copied:
+            arr = self.arrays[name] = arr.copy()
+            self._copied.add(name)
+            view = arr[first : first + len(values)]
+        view[...] = values
+
+
+def _freeze(scene: Scene) -> None:
+    """Make the geometry arrays read-only: later scenes of the source share them."""
+    for name in _GEOMETRY:
+        getattr(scene, name).flags.writeable = False
+
+
+def _same_list(previous: list, current: list) -> list:
+    """``previous`` itself while it holds the very objects of ``current``, else a copy of ``current``."""
+    if len(previous) == len(current) and all(a is b for a, b in zip(previous, current)):
+        return previous
+    return list(current)
+
+
+def _attributes_vary(prim: Usd.Prim) -> bool:
+    return any(a.ValueMightBeTimeVarying() for a in prim.GetAuthoredAttributes())
 
 
 def _source_key(prim: Usd.Prim) -> str:
@@ -118,6 +223,7 @@ class UsdSceneSource:
         self._local: dict[str, LocalMesh] = {}
         self._parts: dict[str, _Part] = {}
         self._framing: Camera | None = None
+        self._frame: _Frame | None = None  # the last evaluation, which later times update
         # False while no used layer holds time samples and no prim uses value clips:
         # then nothing can vary over time and the per-attribute queries are skipped.
         self._may_animate = any(len(layer.ListAllTimeSamples()) for layer in stage.GetUsedLayers())
@@ -133,8 +239,19 @@ class UsdSceneSource:
         return list(self.diagnostics.messages)
 
     def scene_at(self, time: float | None = None) -> Scene:
-        """The scene at ``time`` (default: the start of the time range, or 0)."""
+        """The scene at ``time`` (default: the start of the time range, or 0).
+
+        After the first call only what may vary over time is evaluated again (see the
+        module docs); the result is the same as a full evaluation's."""
         t = self.info.default_time if time is None else float(time)
+        if self._frame is not None:
+            scene = self._update(self._frame, t)
+            if scene is not None:
+                return scene
+        return self._evaluate(t)
+
+    def _evaluate(self, t: float) -> Scene:
+        """The full evaluation: traverse, read every item, assemble; record the frame."""
         if self._materials is None:
             self._materials = MaterialLibrary(self.images, self.diagnostics, t)
         xcache = UsdGeom.XformCache(Usd.TimeCode(t))
@@ -158,6 +275,84 @@ class UsdSceneSource:
         scene.materials = list(self._materials.materials)
         scene.warnings = self.warnings
         validate_scene(scene)
+        _freeze(scene)
+        self._frame = self._record(scene, trav, parts)
+        return scene
+
+    @staticmethod
+    def _record(scene: Scene, trav: _Traversal, parts: list[_Part]) -> _Frame:
+        sizes = np.array([(len(p.world.points), len(p.world.tri_points)) for p in parts], dtype=np.int64)
+        sizes = sizes.reshape(-1, 2)
+        first = np.cumsum(sizes, axis=0) - sizes
+        instanced = np.zeros(len(parts), dtype=bool)
+        for group in trav.instancers:
+            instanced[group.start : group.stop] = True
+        return _Frame(
+            scene=scene,
+            trav=trav,
+            parts=parts,
+            first_point=first[:, 0].tolist(),
+            first_triangle=first[:, 1].tolist(),
+            dynamic=[i for i, p in enumerate(parts) if p.animated],
+            retransform=[i for i, item in enumerate(trav.items) if item.animated and not instanced[i]],
+        )
+
+    def _update(self, frame: _Frame, t: float) -> Scene | None:
+        """The fast path: ``frame`` at time ``t``, evaluating only what may vary; None
+        when something appeared, disappeared or changed topology (then the caller runs
+        the full evaluation, which reports or handles it as always)."""
+        trav, prev = frame.trav, frame.scene
+        tc = Usd.TimeCode(t)
+        if any(attr.Get(tc) != value for attr, value in trav.visibility.values()):
+            return None
+        xcache = UsdGeom.XformCache(tc)
+        items = list(trav.items)
+        for group in trav.instancers:
+            if group.rerun:
+                new, _rerun = self._instancer_items(group.prim, tc, xcache, group.xanim)
+                if [(i.key, i.names) for i in new] != [(i.key, i.names) for i in items[group.start : group.stop]]:
+                    return None
+                items[group.start : group.stop] = new
+        for i in frame.retransform:
+            items[i] = replace(items[i], matrices=_matrix(xcache.GetLocalToWorldTransform(items[i].prim))[None])
+        patch = _Patch(prev)
+        parts = list(frame.parts)
+        cameras = prev.cameras
+        lights, environment = prev.lights, prev.environment
+        try:
+            for i in frame.dynamic:
+                part, old = self._part(items[i], t), frame.parts[i]
+                if part.world.points.shape != old.world.points.shape or (
+                    part.world.tri_points.shape != old.world.tri_points.shape
+                ):
+                    return None
+                patch.write(part, frame.first_point[i], frame.first_triangle[i])
+                parts[i] = part
+            if trav.lights_vary:
+                lights, environment = read_lights(trav.lights, t, xcache, self.images, self.diagnostics)
+            if any(trav.cameras_vary):
+                cameras = [
+                    read_camera(prim, t, self.diagnostics) if vary else old
+                    for prim, vary, old in zip(trav.cameras, trav.cameras_vary, prev.cameras)
+                ]
+        finally:
+            self.images.finish()
+        scene = replace(  # what did not change is the previous scene's own object (arrays, lists)
+            prev,
+            **patch.arrays,
+            lights=lights,
+            environment=environment,
+            cameras=cameras,
+            time=t,
+            images=_same_list(prev.images, self.images.images),
+            textures=_same_list(prev.textures, self.images.textures),
+            materials=_same_list(prev.materials, self._materials.materials),
+            warnings=self.warnings,
+        )
+        if not patch.finite:
+            validate_scene(scene)  # raises naming the prim, as the full evaluation does
+        _freeze(scene)
+        frame.scene, frame.parts, frame.trav = scene, parts, replace(trav, items=items)
         return scene
 
     # -- traversal -----------------------------------------------------------------------
@@ -168,6 +363,10 @@ class UsdSceneSource:
         items: list[_Item] = []
         lights: list[Usd.Prim] = []
         cameras: list[Usd.Prim] = []
+        instancers: list[_Instancer] = []
+        visibility: dict[Sdf.Path, tuple[Usd.Attribute, object]] = {}
+        lights_vary = False
+        cameras_vary: list[bool] = []
         state: dict = {}
         unauthored_subdiv: list[str] = []
         it = iter(Usd.PrimRange(self.stage.GetPseudoRoot(), Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)))
@@ -178,19 +377,20 @@ class UsdSceneSource:
             if prim.IsA(UsdShade.Material) or prim.IsA(UsdShade.Shader) or prim.IsA(UsdShade.NodeGraph):
                 it.PruneChildren()
                 continue
-            if prim.IsA(UsdGeom.Imageable):
-                img = UsdGeom.Imageable(prim)
-                if img.GetVisibilityAttr().Get(tc) == UsdGeom.Tokens.invisible:
-                    hidden = True
-                pinfo = img.ComputePurposeInfo(pinfo) if pinfo is not None else img.ComputePurposeInfo()
             if not self._may_animate and prim.HasAuthoredMetadata("clips"):
                 self._may_animate = True
+            if prim.IsA(UsdGeom.Imageable):
+                img = UsdGeom.Imageable(prim)
+                if self._watch_visibility(img, tc, visibility) == UsdGeom.Tokens.invisible:
+                    hidden = True
+                pinfo = img.ComputePurposeInfo(pinfo) if pinfo is not None else img.ComputePurposeInfo()
             if self._may_animate and prim.IsA(UsdGeom.Xformable):
                 xf = UsdGeom.Xformable(prim)
                 xanim = (xanim and not xf.GetResetXformStack()) or xf.TransformMightBeTimeVarying()
             state[path] = (hidden, pinfo, xanim)
             if prim.IsA(UsdGeom.Camera):
                 cameras.append(prim)
+                cameras_vary.append(self._may_animate and (xanim or _attributes_vary(prim)))
                 continue
             if hidden or (pinfo is not None and pinfo.purpose in _SKIPPED_PURPOSES):
                 continue
@@ -200,12 +400,15 @@ class UsdSceneSource:
                 m = _matrix(xcache.GetLocalToWorldTransform(prim))[None]
                 items.append(_Item(name, prim, _source_key(prim), m, xanim, [name]))
             elif prim.IsA(UsdGeom.PointInstancer):
-                items.extend(self._instancer_items(prim, tc, xcache, xanim))
+                batch, rerun = self._instancer_items(prim, tc, xcache, xanim, visibility)
+                instancers.append(_Instancer(prim, xanim, len(items), len(items) + len(batch), rerun))
+                items.extend(batch)
                 it.PruneChildren()
             elif prim.IsA(UsdLux.LightFilter):
                 diag.warn("light filters are not supported; ignored", name)
             elif prim.HasAPI(UsdLux.LightAPI):
                 lights.append(prim)
+                lights_vary = lights_vary or (self._may_animate and (xanim or _attributes_vary(prim)))
             elif prim.IsA(UsdGeom.Gprim):
                 diag.warn(f"{prim.GetTypeName()} prims are not supported (only UsdGeom.Mesh); skipped", name)
         if unauthored_subdiv:
@@ -214,7 +417,17 @@ class UsdSceneSource:
                 f"rendered as polygon meshes (first: {unauthored_subdiv[0]})",
                 key="unauthored-subdivision-scheme",
             )
-        return _Traversal(items, lights, cameras)
+        return _Traversal(items, lights, cameras, instancers, visibility, lights_vary, cameras_vary)
+
+    def _watch_visibility(
+        self, img: UsdGeom.Imageable, tc: Usd.TimeCode, watch: dict[Sdf.Path, tuple[Usd.Attribute, object]]
+    ) -> object:
+        """``img``'s own visibility at ``tc``, kept in ``watch`` when it may vary."""
+        attr = img.GetVisibilityAttr()
+        value = attr.Get(tc)
+        if self._may_animate and attr.ValueMightBeTimeVarying():
+            watch[attr.GetPath()] = (attr, value)
+        return value
 
     def _check_mesh_features(self, prim: Usd.Prim, unauthored_subdiv: list[str]) -> None:
         diag = self.diagnostics
@@ -231,11 +444,23 @@ class UsdSceneSource:
             diag.warn("skinning (SkelBindingAPI) is not applied; rendered in its rest pose", name)
 
     def _instancer_items(
-        self, prim: Usd.Prim, tc: Usd.TimeCode, xcache: UsdGeom.XformCache, xanim: bool
-    ) -> list[_Item]:
+        self,
+        prim: Usd.Prim,
+        tc: Usd.TimeCode,
+        xcache: UsdGeom.XformCache,
+        xanim: bool,
+        watch: dict[Sdf.Path, tuple[Usd.Attribute, object]] | None = None,
+    ) -> tuple[list[_Item], bool]:
+        """The instancer's items, and whether they may vary over time (its instance
+        attributes, its own or its prototypes' transforms).  The time-varying visibility
+        of the prototypes and their ancestors goes to ``watch``."""
         diag = self.diagnostics
         name = str(prim.GetPath())
         pi = UsdGeom.PointInstancer(prim)
+        animated = xanim or (
+            self._may_animate
+            and any(prim.GetAttribute(a).ValueMightBeTimeVarying() for a in _INSTANCER_ATTRS if prim.GetAttribute(a))
+        )
         xforms = np.asarray(
             pi.ComputeInstanceTransformsAtTime(
                 tc, tc, UsdGeom.PointInstancer.IncludeProtoXform, UsdGeom.PointInstancer.IgnoreMask
@@ -249,29 +474,26 @@ class UsdSceneSource:
                     "instance attributes disagree in length (positions/orientations/scales vs protoIndices); skipped",
                     name,
                 )
-            return []
+            return [], animated
         mask = pi.ComputeMaskAtTime(tc)
         active = np.asarray(mask, dtype=bool) if len(mask) else np.ones(len(proto_idx), dtype=bool)
         targets = pi.GetPrototypesRel().GetTargets()
         bad = (proto_idx < 0) | (proto_idx >= len(targets))
         if bad.any():
             diag.warn(
-                f"{int(bad.sum())} protoIndices reach outside the {len(targets)} prototypes; those instances are skipped",
+                f"{int(bad.sum())} protoIndices reach outside the {len(targets)} prototypes; "
+                "those instances are skipped",
                 name,
             )
             active &= ~bad
         world = _matrix(xcache.GetLocalToWorldTransform(prim))
-        animated = xanim or (
-            self._may_animate
-            and any(prim.GetAttribute(a).ValueMightBeTimeVarying() for a in _INSTANCER_ATTRS if prim.GetAttribute(a))
-        )
         items = []
         for j, target in enumerate(targets):
             sel = np.flatnonzero(active & (proto_idx == j))
             proto = self.stage.GetPrimAtPath(target)
             if not sel.size or not proto:
                 continue
-            for mesh, rel, rel_animated in self._prototype_meshes(proto, tc, xcache):
+            for mesh, rel, rel_animated in self._prototype_meshes(proto, tc, xcache, watch):
                 matrices = rel[None] @ xforms[sel] @ world[None]
                 mesh_name = str(mesh.GetPath())
                 items.append(
@@ -284,18 +506,33 @@ class UsdSceneSource:
                         names=[f"{mesh_name}@{name}[{i}]" for i in sel],
                     )
                 )
-        return items
+        return items, animated or any(item.animated for item in items)
 
-    def _prototype_meshes(self, proto: Usd.Prim, tc: Usd.TimeCode, xcache: UsdGeom.XformCache):
+    def _prototype_meshes(
+        self,
+        proto: Usd.Prim,
+        tc: Usd.TimeCode,
+        xcache: UsdGeom.XformCache,
+        watch: dict[Sdf.Path, tuple[Usd.Attribute, object]] | None = None,
+    ):
         """(mesh prim, transform relative to the prototype root, animated) for each
-        drawable mesh of a PointInstancer prototype."""
+        drawable mesh of a PointInstancer prototype; animated covers the prototype
+        root's own transform, which the instance transforms include."""
         diag = self.diagnostics
         out = []
+        if watch is not None:  # the ancestors' visibility is part of ComputeVisibility
+            p = proto.GetParent()
+            while p:
+                if p.IsA(UsdGeom.Imageable):
+                    self._watch_visibility(UsdGeom.Imageable(p), tc, watch)
+                p = p.GetParent()
         it = iter(Usd.PrimRange(proto, Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)))
         for prim in it:
             if not prim.IsA(UsdGeom.Imageable):
                 continue
             img = UsdGeom.Imageable(prim)
+            if watch is not None:
+                self._watch_visibility(img, tc, watch)
             if img.ComputeVisibility(tc) == UsdGeom.Tokens.invisible or img.ComputePurpose() in _SKIPPED_PURPOSES:
                 it.PruneChildren()
                 continue
@@ -308,9 +545,9 @@ class UsdSceneSource:
                 rel, _resets = xcache.ComputeRelativeTransform(prim, proto)
                 animated = False
                 p = prim
-                while self._may_animate and p and p != proto:
+                while self._may_animate and p:
                     animated = animated or UsdGeom.Xformable(p).TransformMightBeTimeVarying()
-                    p = p.GetParent()
+                    p = None if p == proto else p.GetParent()
                 out.append((prim, _matrix(rel), animated))
             elif prim.IsA(UsdGeom.Gprim):
                 diag.warn(f"{prim.GetTypeName()} prims are not supported (only UsdGeom.Mesh); skipped", name)

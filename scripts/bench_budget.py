@@ -1,0 +1,107 @@
+"""The adaptive loop against its budget: the paper's "traced area at 15 FPS" for our scenes.
+
+For each shared scene (its own entry for each ``*_animated`` layer) at 640x480, replays
+the shipped gaze trace (``scenes/traces/demo_gaze.csv``, 5 s) at ``--fps`` (15) through
+``replay.loop.AdaptiveLoop`` with the real clock, after a warm-up, and reports: the
+raster-only frame time (median; where it exceeds the budget, no window size can meet
+it and the scene is marked infeasible), frames within the budget and within the
+budget + 10% (%), the mean traced area (% of the screen: the paper's figure), frame
+time percentiles, and the controller's prediction error per frame (median and 95th
+percentile of |predicted - measured| frame ms).  Each scene runs in its own subprocess.
+
+    .venv/bin/python scripts/bench_budget.py [--scenes staircase classroom_animated] [--size 640x480]
+        [--fps 15] [--json out/bench_budget.json]
+"""
+
+from __future__ import annotations
+
+import statistics
+
+import numpy as np
+from bench_common import ROOT, run_per_scene
+
+TRACE = ROOT / "scenes" / "traces" / "demo_gaze.csv"
+
+
+def measure_scene(path: str, width: int, height: int, repeats: int, fps: float) -> dict:
+    """Raster-only median and a budgeted replay of the trace for one scene."""
+    from gaze.factory import open_source
+    from warp_hybrid.renderer import RenderSettings
+    from warp_hybrid.replay.loop import AdaptiveLoop, LoopSettings
+    from warp_hybrid.replay.run import SteadyGaze
+    from warp_hybrid.runtime import init_warp
+    from warp_hybrid.scene.open import open_scene_source
+
+    init_warp()
+    budget = 1000.0 / fps
+    source = open_scene_source(path)
+    raster = RenderSettings(width=width, height=height, mode="raster")
+    with AdaptiveLoop(source, raster, LoopSettings(fps=fps)) as loop:
+        gaze = SteadyGaze(open_source("fixed:0.5,0.5"))
+        loop.renderer.warm_up(loop.camera)
+        raster_ms = statistics.median(loop.step(0.0, gaze.sample(0.0)).frame_ms for _ in range(max(repeats, 3)))
+    hybrid = RenderSettings(width=width, height=height, mode="hybrid")
+    frames_ms, traced, errors = [], [], []
+    with open_source(f"trace:{TRACE}") as trace, AdaptiveLoop(source, hybrid, LoopSettings(fps=fps)) as loop:
+        gaze = SteadyGaze(trace)
+        loop.renderer.warm_up(loop.camera)
+        for _ in range(3):
+            loop.step(0.0, gaze.sample(0.0))
+        frames = int(round(trace.duration * fps))
+        for i in range(frames):
+            t = i / fps
+            f = loop.step(t, gaze.sample(t))
+            frames_ms.append(f.frame_ms)
+            traced.append(f.traced_fraction)
+            if f.plan is not None:
+                errors.append(abs(f.plan.predicted_frame_ms - f.frame_ms))
+    ms = np.asarray(frames_ms)
+    return {
+        "triangles": source.scene_at(None).triangle_count,
+        "budget_ms": budget,
+        "raster_ms": raster_ms,
+        "feasible": raster_ms <= budget,
+        "frames": len(ms),
+        "within_pct": float(np.mean(ms <= budget) * 100.0),
+        "within_10_pct": float(np.mean(ms <= 1.1 * budget) * 100.0),
+        "traced_pct": float(np.mean(traced) * 100.0),
+        "p50_ms": float(np.percentile(ms, 50)),
+        "p95_ms": float(np.percentile(ms, 95)),
+        "prediction_error_p50_ms": float(np.percentile(errors, 50)) if errors else None,
+        "prediction_error_p95_ms": float(np.percentile(errors, 95)) if errors else None,
+    }
+
+
+def main() -> None:
+    """Every scene in its own subprocess; print the table."""
+    args, width, height, results = run_per_scene(
+        __doc__.splitlines()[0],
+        __file__,
+        measure_scene,
+        options=[("--fps", {"type": float, "default": 15.0, "help": "target frame rate (default 15)"})],
+    )
+    fps = args.fps
+    print(
+        "| scene | triangles | raster ms | feasible | within budget | within +10% | traced area | p50 ms | p95 ms "
+        "| prediction error p50/p95 ms |"
+    )
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    for name, r in results.items():
+        err = r["prediction_error_p50_ms"]
+        err_text = f"{err:.1f} / {r['prediction_error_p95_ms']:.1f}" if err is not None else "-"
+        print(
+            f"| {name} | {r['triangles']} | {r['raster_ms']:.1f} | {'yes' if r['feasible'] else 'no'} "
+            f"| {r['within_pct']:.0f}% | {r['within_10_pct']:.0f}% | {r['traced_pct']:.1f}% "
+            f"| {r['p50_ms']:.1f} | {r['p95_ms']:.1f} | {err_text} |"
+        )
+    print(f"\n{width}x{height}, {fps:g} FPS (budget {1000.0 / fps:.1f} ms), the shipped 5 s trace")
+    if args.json:
+        import json
+        from pathlib import Path
+
+        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
+        Path(args.json).write_text(json.dumps(results, indent=2) + "\n")
+
+
+if __name__ == "__main__":
+    main()

@@ -105,20 +105,43 @@ class Frame:
     not traced.
     ``image``: (H, W, 3) uint8 sRGB after exposure, tone mapping and anti-aliasing.
     ``stats``: JSON-ready dict (ms per stage, triangles, resolution, device, ...).
-    ``gbuffer`` is the renderer's own buffer: valid until its next ``render``.
+    ``gbuffer`` is the renderer's own buffer: valid until its next ``render``; so are
+    ``color`` and ``visibility`` when the frame was rendered without host copies
+    (``render(..., host_copies=False)``), read from the device when first used.
     """
 
-    color: np.ndarray
     image: np.ndarray
     gbuffer: GBuffer
-    visibility: np.ndarray
+    buffers: FrameBuffers
     stats: dict[str, Any] = field(default_factory=dict)
+    _color: np.ndarray | None = None
+    _visibility: np.ndarray | None = None
+
+    @property
+    def color(self) -> np.ndarray:
+        """Linear radiance (H, W, 3) float32."""
+        if self._color is None:
+            self.copy_to_host()
+        return self._color
+
+    @property
+    def visibility(self) -> np.ndarray:
+        """Per-light transmittance luminance (H, W, L) float32, NaN where not traced."""
+        if self._visibility is None:
+            self.copy_to_host()
+        return self._visibility
+
+    def copy_to_host(self) -> None:
+        """Read ``color`` and ``visibility`` from the device now (they then outlive the
+        renderer's next frame)."""
+        self._color = self.buffers.color.numpy().astype(np.float32)
+        self._visibility = self.buffers.visibility.numpy().astype(np.float32)
 
     def aovs(self) -> dict[str, np.ndarray]:
         """The AOV contract: depth, position, normal, albedo from the G-buffer,
         color (linear, before tone mapping) and visibility."""
         out = self.gbuffer.aovs()
-        out["color"] = self.color.astype(np.float32)
+        out["color"] = self.color
         out["visibility"] = self.visibility
         return out
 
@@ -246,14 +269,22 @@ class Renderer:
         s = self.settings
         return FocusWindow(gaze=gaze, fraction=s.window_fraction, shape=s.window_shape, feather_px=s.feather_px)
 
-    def render(self, camera: Camera, window: FocusWindow | None = None, trace_deadline: float | None = None) -> Frame:
+    def render(
+        self,
+        camera: Camera,
+        window: FocusWindow | None = None,
+        trace_deadline: float | None = None,
+        host_copies: bool = True,
+    ) -> Frame:
         """Render one frame through ``camera``.
 
         ``window`` is this frame's focus window (hybrid mode; default: the settings'
         window at the screen centre).  It is ignored in raster and full modes.
         ``trace_deadline`` (hybrid mode): a reading of the renderer's clock (seconds) by
         which tracing must stop; the window is then traced outward in rings until then
-        (``trace.guard``), and the stats say how much was traced.
+        (``trace.guard``), and the stats say how much was traced.  ``host_copies``: copy
+        ``color`` and ``visibility`` to the host within the frame (False: only the
+        image; they are read from the device on first use, until the next ``render``).
         """
         s = self.settings
         if s.mode == "hybrid":
@@ -270,10 +301,11 @@ class Renderer:
         for p in self.passes:
             p.execute(frame)
         with frame.timer.stage("readback"):
-            color = self.buffers.color.numpy().astype(np.float32)
-            visibility = self.buffers.visibility.numpy().astype(np.float32)
             image = np.array(frame.image.numpy(), copy=True)
             rays = frame.rays.counts() if frame.rays is not None else None
+            out = Frame(image=image, gbuffer=self.buffers.gbuffer, buffers=self.buffers)
+            if host_copies:
+                out.copy_to_host()
         stats = {
             "scene": self.scene.path,
             "camera": camera.name,
@@ -295,7 +327,8 @@ class Renderer:
         guard = self._guard.report if self._guard is not None else None
         if guard is not None:
             stats["guard"] = dataclasses.asdict(guard)
-        return Frame(color=color, image=image, gbuffer=self.buffers.gbuffer, visibility=visibility, stats=stats)
+        out.stats = stats
+        return out
 
     @property
     def _guard(self) -> GuardedTrace | None:

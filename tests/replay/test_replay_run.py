@@ -63,7 +63,11 @@ def test_a_short_replay_writes_a_video_and_one_row_per_frame(device: str, tmp_pa
     assert list(rows[0])[: len(FIXED_COLUMNS)] == list(FIXED_COLUMNS)
     np.testing.assert_allclose([r["t"] for r in rows], np.arange(5) / 12.0, atol=1e-6)
     for r in rows:
-        assert r["gaze_x"] == pytest.approx(0.3) and r["gaze_valid"] and r["budget_ms"] == pytest.approx(1000 / 12, abs=1e-3)
+        assert (
+            r["gaze_x"] == pytest.approx(0.3)
+            and r["gaze_valid"]
+            and r["budget_ms"] == pytest.approx(1000 / 12, abs=1e-3)
+        )
         assert r["frame_ms"] >= r["scene_update_ms"] + r["refit_ms"] + r["raster_ms"]
         assert 0.0 < r["traced_fraction"] <= r["window_fraction"] + 1e-9 <= 1.0 + 1e-9
     assert (tmp_path / "s.json").is_file()

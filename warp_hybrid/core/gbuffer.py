@@ -94,9 +94,11 @@ class GBuffer:
         """Every channel's array by name, in table order."""
         return dict(self._arrays)
 
-    def clear(self) -> None:
-        """Write the background record into every pixel (each channel's ``background``)."""
-        for c in CHANNELS:
+    def clear(self, part: int = 0, parts: int = 1) -> None:
+        """Write the background record into every pixel (each channel's ``background``);
+        ``part`` of ``parts`` clears only channels ``part, part + parts, ...`` (so host
+        threads can share the work: a clear is a memset, which releases the GIL)."""
+        for c in CHANNELS[part::parts]:
             array = self._arrays[c.name]
             if c.background == 0.0:
                 array.zero_()

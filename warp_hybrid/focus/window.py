@@ -25,7 +25,7 @@ bounding box and the focus region's pixel list all derive from these runs.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -59,6 +59,7 @@ class WindowLayout:
     y0: int
     y1: int
     count: int
+    spans: tuple[np.ndarray, np.ndarray] = field(default=None, compare=False, repr=False)  # type: ignore[assignment]
 
     @property
     def radius(self) -> float:
@@ -94,6 +95,8 @@ class WindowLayout:
     def row_spans(self) -> tuple[np.ndarray, np.ndarray]:
         """Per screen row j, the covered columns ``[start[j], stop[j])`` (int64, length H;
         empty rows have start == stop == 0)."""
+        if self.spans is not None:
+            return self.spans
         return _row_spans(self.shape, self.width, self.height, self.cx, self.cy, self.half_width, self.half_height)
 
     @property
@@ -182,7 +185,9 @@ def _placed(
         rows = np.flatnonzero(lengths)
         y0, y1 = int(rows[0]), int(rows[-1]) + 1
         x0, x1 = int(start[rows].min()), int(stop[rows].max())
-    return WindowLayout(width, height, shape, cx, cy, hw, hh, feather_px, x0, x1, y0, y1, count)
+    start.flags.writeable = False
+    stop.flags.writeable = False
+    return WindowLayout(width, height, shape, cx, cy, hw, hh, feather_px, x0, x1, y0, y1, count, (start, stop))
 
 
 def _clamp_centre(g: float, half: float, size: float) -> float:

@@ -2,7 +2,7 @@
 ``GBufferBase`` -> ``GBufferRaster`` / ``GBufferRT``).
 
 ``PrimaryVisibility.render`` checks the sizes, clears the G-buffer to the background
-record, lets the subclass write each pixel's hit record (``find_hits``: rasterized in
+record (stage "clear", the channels shared between the host threads), lets the subclass write each pixel's hit record (``find_hits``: rasterized in
 ``Rasterizer``, ray cast in ``RayCaster``), then runs the surface pass both share
 (stage "surface": the material at each hit record, textures filtered over the pixel's
 footprint, into every other channel).  The lighting, tracing and composition stages
@@ -41,7 +41,8 @@ class PrimaryVisibility(RenderPass):
             raise ValueError(
                 f"camera is for {camera.width}x{camera.height} but the G-buffer is {gbuffer.width}x{gbuffer.height}"
             )
-        gbuffer.clear()
+        with timer.stage("clear"):
+            self.launcher.run(gbuffer.clear)
         self.find_hits(scene, camera, gbuffer, timer)
         with timer.stage("surface"):
             self.launcher.launch_pixels(

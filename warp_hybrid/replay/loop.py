@@ -41,6 +41,7 @@ AFTER_TRACE_STAGES = ("relight", "compose", "tonemap", "aa", "readback", "adapt"
 FRAME_STAGES = (
     "scene_update",
     "refit",
+    "clear",
     "raster",
     "resolve",
     "raycast",
@@ -215,7 +216,7 @@ class AdaptiveLoop:
                 deadline = start + plan.trace_deadline_ms / 1000.0
             else:
                 window = self.renderer.default_window((gaze.x, gaze.y))
-        frame = self.renderer.render(self.camera, window, trace_deadline=deadline)
+        frame = self.renderer.render(self.camera, window, trace_deadline=deadline, host_copies=False)
         stages = {**before, **frame.stats["stages_ms"]}
         timer = StageTimer(clock=self.clock)
         with timer.stage("adapt"):

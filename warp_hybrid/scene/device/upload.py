@@ -266,8 +266,10 @@ class DeviceScene:
             self._upload_dome(scene)
         # The features follow the used materials (the triangles' are unchanged), whether
         # there are lights and whether there is a dome: re-analysed only when those change.
-        if materials_changed or bool(scene.lights) != bool(old.lights) or (scene.environment is None) != (
-            old.environment is None
+        if (
+            materials_changed
+            or bool(scene.lights) != bool(old.lights)
+            or (scene.environment is None) != (old.environment is None)
         ):
             self.features = analyse_features(scene)
         self.gpu = self._make_struct()

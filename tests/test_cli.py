@@ -123,3 +123,26 @@ def test_bad_gaze_is_a_clear_error(tmp_path: Path, capsys: pytest.CaptureFixture
     assert main(["render", str(CORNELL), "-o", str(tmp_path / "x.png"), "--gaze", "trace:nope.csv"]) == 2
     assert "nope.csv" in capsys.readouterr().err
     assert list(tmp_path.iterdir()) == []
+
+
+def test_render_on_a_budget_sizes_the_window_with_the_controller(tmp_path: Path) -> None:
+    stats_path = tmp_path / "s.json"
+    args = ["render", str(CORNELL), "-o", str(tmp_path / "b.png"), "--size", "64x48", "--fps", "15"]
+    assert main([*args, "--warm-up", "3", "--stats-json", str(stats_path)]) == 0
+    budget = json.loads(stats_path.read_text())["budget"]
+    assert budget["budget_ms"] == pytest.approx(1000 / 15) and budget["warm_up_frames"] == 3
+    assert 0.01 <= budget["window_fraction"] <= 1.0 and budget["reason"] in {
+        "warmup", "predict", "grow", "hold", "panic", "infeasible"
+    }  # fmt: skip
+    assert budget["frame_ms"] > 0 and budget["traced_fraction"] <= budget["window_fraction"] + 1e-6
+
+
+def test_replay_needs_an_output_and_a_positive_length(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    base = ["replay", str(CORNELL), "--gaze", "fixed:0.5,0.5", "--size", "32x24"]
+    assert main(base) == 2
+    assert "--out" in capsys.readouterr().err
+    assert main([*base, "--stats", str(tmp_path / "s.csv"), "--frames", "0"]) == 2
+    assert "--frames must be >= 1" in capsys.readouterr().err
+    assert main([*base, "--stats", str(tmp_path / "s.csv"), "--fps", "-3"]) == 2
+    assert "--fps" in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []

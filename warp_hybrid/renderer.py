@@ -165,7 +165,7 @@ class Renderer:
                 raise RenderSettingsError(f"the device scene is on {scene.device.alias}, not {self.device.alias}")
             self.device_scene = scene
         else:
-            timer = self._timer()
+            timer = self.new_timer()
             self.device_scene = DeviceScene(scene, self.device, timer)
             self.setup_ms = dict(timer.stages_ms)
         self.launcher = Launcher(self.device, self.settings.threads)
@@ -221,7 +221,9 @@ class Renderer:
                 return p
         return None
 
-    def _timer(self) -> StageTimer:
+    def new_timer(self) -> StageTimer:
+        """A stage timer on the renderer's clock that synchronises its device before
+        each reading (so a stage's time covers its launched work)."""
         return StageTimer(clock=self.clock, sync=self._sync)
 
     def close(self) -> None:
@@ -256,7 +258,7 @@ class Renderer:
         """Swap in the same scene at another time (same topology): copy what moved,
         refit the BVH, re-upload what changed (lights, materials, the dome) and let
         every pass see it.  Returns the milliseconds it took."""
-        timer = self._timer()
+        timer = self.new_timer()
         with timer.stage("refit"):
             self.device_scene.update(scene)
             self._set_scene()
@@ -293,7 +295,7 @@ class Renderer:
             window = None
         frame = FrameContext(
             camera=make_camera_gpu(camera, s.width, s.height),
-            timer=self._timer(),
+            timer=self.new_timer(),
             buffers=self.buffers,
             window=window,
             trace_deadline=trace_deadline if s.mode == "hybrid" else None,

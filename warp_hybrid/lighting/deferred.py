@@ -124,33 +124,19 @@ class DeferredLighting(RenderPass):
         """Write linear radiance (H, W) vec3 into ``color_out``.  ``skip_weight`` (H, W)
         float32: pixels whose weight is >= 1 are left untouched (the hybrid mode's
         window interior, which the traced layer replaces anyway)."""
-        h, w = gbuffer.height, gbuffer.width
-        if tuple(color_out.shape) != (h, w) or (camera.width, camera.height) != (w, h):
-            raise ValueError(
-                f"color_out {tuple(color_out.shape)} and camera {camera.width}x{camera.height} "
-                f"must match the G-buffer ({w}x{h})"
-            )
-        if skip_weight is not None and tuple(skip_weight.shape) != (h, w):
-            raise ValueError(f"skip_weight has shape {tuple(skip_weight.shape)}, expected {(h, w)}")
         mode = SHADE_ALL if skip_weight is None else SHADE_OUTSIDE
-        self._launch(scene, camera, gbuffer, color_out, timer, "lighting", mode, skip_weight, None)
+        self._launch(scene, camera, gbuffer, color_out, timer, "lighting", mode, skip_weight=skip_weight)
 
-    def refill(
-        self,
-        scene: DeviceScene,
-        camera: CameraGPU,
-        gbuffer: GBuffer,
-        color_out: wp.array,
-        timer: StageTimer,
-        skipped_weight: wp.array,
-        traced_weight: wp.array,
-    ) -> None:
-        """Shade the pixels an earlier ``shade`` skipped (``skipped_weight`` >= 1) that the
-        traced window does not replace (``traced_weight`` < 1) (stage "relight")."""
-        for name, array in (("skipped_weight", skipped_weight), ("traced_weight", traced_weight)):
-            if tuple(array.shape) != (gbuffer.height, gbuffer.width):
-                raise ValueError(f"{name} has shape {tuple(array.shape)}, expected {(gbuffer.height, gbuffer.width)}")
-        self._launch(scene, camera, gbuffer, color_out, timer, "relight", SHADE_REFILL, skipped_weight, traced_weight)
+    def refill(self, frame: FrameContext, skipped_weight: wp.array, traced_weight: wp.array) -> None:
+        """Shade into ``frame``'s raster layer the pixels an earlier ``shade`` skipped
+        (``skipped_weight`` >= 1) that the traced window does not replace
+        (``traced_weight`` < 1) (stage "relight")."""
+        assert self.scene is not None, "set_scene first"
+        b = frame.buffers
+        self._launch(
+            self.scene, frame.camera, b.gbuffer, b.raster_color, frame.timer, "relight", SHADE_REFILL,
+            skip_weight=skipped_weight, refill_weight=traced_weight,
+        )  # fmt: skip
 
     def _launch(
         self,
@@ -161,9 +147,18 @@ class DeferredLighting(RenderPass):
         timer: StageTimer,
         stage: str,
         mode: int,
-        skip_weight: wp.array | None,
-        refill_weight: wp.array | None,
+        skip_weight: wp.array | None = None,
+        refill_weight: wp.array | None = None,
     ) -> None:
+        h, w = gbuffer.height, gbuffer.width
+        if tuple(color_out.shape) != (h, w) or (camera.width, camera.height) != (w, h):
+            raise ValueError(
+                f"color_out {tuple(color_out.shape)} and camera {camera.width}x{camera.height} "
+                f"must match the G-buffer ({w}x{h})"
+            )
+        for name, array in (("skip_weight", skip_weight), ("refill_weight", refill_weight)):
+            if array is not None and tuple(array.shape) != (h, w):
+                raise ValueError(f"{name} has shape {tuple(array.shape)}, expected {(h, w)}")
         inputs = [
             scene.gpu,
             scene.ambient,

@@ -31,7 +31,7 @@ from ..renderer import Frame, Renderer, RenderSettings
 from ..scene.model import Camera, Scene
 from ..scene.usd.camera import select_camera
 from ..scene.usd.loader import UsdSceneSource
-from ..timing import Clock, StageTimer, perf_clock
+from ..timing import Clock, perf_clock
 
 #: The stages that trace; the controller's cost map learns their time.
 TRACE_STAGES = ("trace_setup", "trace_shadow", "trace_secondary")
@@ -187,7 +187,7 @@ class AdaptiveLoop:
     def advance(self, t: float) -> None:
         """Move the scene to ``t`` seconds (stages "scene_update" and "refit"); the time
         counts toward the next ``render``'s frame."""
-        timer = StageTimer(clock=self.clock)
+        timer = self.renderer.new_timer()
         self._frame_start = timer.now()
         code = self.time_code(t)
         if code != self.scene.time:
@@ -201,7 +201,7 @@ class AdaptiveLoop:
 
     def render(self, gaze: GazeSample, t: float | None = None) -> LoopFrame:
         """Draw the frame at the current scene time looking at ``gaze``."""
-        start = self._frame_start if self._frame_start is not None else self.clock()
+        start = self._frame_start if self._frame_start is not None else self.renderer.new_timer().now()
         before = dict(self._pending_ms)
         self._pending_ms, self._frame_start = {}, None
         rs = self.renderer.settings
@@ -218,11 +218,11 @@ class AdaptiveLoop:
                 window = self.renderer.default_window((gaze.x, gaze.y))
         frame = self.renderer.render(self.camera, window, trace_deadline=deadline, host_copies=False)
         stages = {**before, **frame.stats["stages_ms"]}
-        timer = StageTimer(clock=self.clock)
+        timer = self.renderer.new_timer()
         with timer.stage("adapt"):
             tiles = self.renderer.tally.tiles() if self.controller is not None else None
         stages["adapt"] = timer.stages_ms["adapt"]
-        frame_ms = (self.clock() - start) * 1000.0
+        frame_ms = (timer.now() - start) * 1000.0
         window_stats = frame.stats.get("window", {})
         screen_fraction = {"raster": 0.0, "full": 1.0}.get(rs.mode)
         window_fraction = window.fraction if window is not None else screen_fraction

@@ -17,7 +17,7 @@ from __future__ import annotations
 import math
 import signal
 import threading
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -133,11 +133,13 @@ def replay(
     outputs: ReplayOutputs,
     warm_up: int = 3,
     progress: bool | None = None,
+    on_frame: Callable[[LoopFrame], None] | None = None,
 ) -> ReplayResult:
     """Render ``frames`` frames of ``loop`` at its fps looking where ``gaze`` says, into
     ``outputs``; ``warm_up`` untimed frames first (kernels compiled, the controller
-    primed) at the first frame's time.  Returns the summary; an interruption ends the
-    replay early with whole outputs (``interrupted`` set)."""
+    primed) at the first frame's time; ``on_frame`` sees every finished frame.  Returns
+    the summary; an interruption ends the replay early with whole outputs
+    (``interrupted`` set)."""
     settings = loop.settings
     steady = SteadyGaze(gaze)
     rs = loop.renderer.settings
@@ -163,6 +165,8 @@ def replay(
                     write_png(outputs.frames_dir / f"frame_{i:05d}.png", frame.frame.image)
                 slim.append({"frame_ms": frame.frame_ms, "traced_fraction": frame.traced_fraction})
                 bar.update(frame.within_budget)
+                if on_frame is not None:
+                    on_frame(frame)
     except KeyboardInterrupt:
         interrupted = True
     finally:

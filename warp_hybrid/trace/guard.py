@@ -97,8 +97,6 @@ class GuardedTrace(RenderPass):
                 self._skipped = wp.empty_like(planned.weight)
             wp.copy(self._skipped, planned.weight)
             frame.region = self.focus.build_layout(rings.layouts[done - 1], frame.timer)
-            self.lighting.refill(
-                self.scene, frame.camera, gb, b.raster_color, frame.timer, self._skipped, frame.region.weight
-            )
+            self.lighting.refill(frame, self._skipped, frame.region.weight)
         screen = float(gb.width * gb.height)
         self.report = GuardReport(done, RINGS, planned.count / screen, frame.region.count / screen)

@@ -228,12 +228,15 @@ class AdaptiveLoop:
         window_fraction = window.fraction if window is not None else screen_fraction
         traced = window_stats.get("covered_fraction", screen_fraction if screen_fraction is not None else 0.0)
         if self.controller is not None and tiles is not None:
+            trace_ms = sum(stages.get(k, 0.0) for k in TRACE_STAGES)
+            after_ms = sum(stages.get(k, 0.0) for k in AFTER_TRACE_STAGES)
             self.controller.observe(
                 FrameCost(
                     frame_ms=frame_ms,
-                    before_trace_ms=sum(ms for k, ms in stages.items() if k not in TRACE_STAGES + AFTER_TRACE_STAGES),
-                    trace_ms=sum(stages.get(k, 0.0) for k in TRACE_STAGES),
-                    after_trace_ms=sum(stages.get(k, 0.0) for k in AFTER_TRACE_STAGES),
+                    # everything else, the host time between the stages included, is fixed cost
+                    before_trace_ms=max(frame_ms - trace_ms - after_ms, 0.0),
+                    trace_ms=trace_ms,
+                    after_trace_ms=after_ms,
                     tile_pixels=tiles.pixels,
                     tile_rays=tiles.rays,
                 )

@@ -1,4 +1,4 @@
-"""Command line: ``warp-hybrid render|replay|info|convert|gaze`` (also ``python -m warp_hybrid``).
+"""Command line: ``warp-hybrid render|replay|bench|info|convert|gaze`` (also ``python -m warp_hybrid``).
 
 Every error the package raises on purpose (bad file, bad setting) is printed as one
 line naming the file and the problem, with exit status 2; outputs are written
@@ -44,18 +44,26 @@ def parse_exposure(text: str) -> float | None:
         raise argparse.ArgumentTypeError(f"exposure must be 'auto' or a number of stops, got {text!r}") from exc
 
 
+def gaze_point(text: str) -> tuple[float, float] | None:
+    """``X,Y`` as two finite numbers, or None when ``text`` is not of that form (a spec)."""
+    parts = text.split(",")
+    if ":" in text or len(parts) != 2:
+        return None
+    try:
+        x, y = float(parts[0]), float(parts[1])
+    except ValueError as exc:
+        raise RenderSettingsError(f"--gaze must be X,Y or a gaze source spec, got {text!r}") from exc
+    if not (np.isfinite(x) and np.isfinite(y)):
+        raise RenderSettingsError(f"--gaze must be finite, got {text!r}")
+    return x, y
+
+
 def resolve_gaze(text: str, scene: Scene) -> tuple[float, float]:
     """The gaze point for a frame: ``X,Y`` as given, or a gaze source spec sampled at
     the scene's time in seconds from the start of its time range."""
-    parts = text.split(",")
-    if ":" not in text and len(parts) == 2:
-        try:
-            x, y = float(parts[0]), float(parts[1])
-        except ValueError as exc:
-            raise RenderSettingsError(f"--gaze must be X,Y or a gaze source spec, got {text!r}") from exc
-        if not (np.isfinite(x) and np.isfinite(y)):
-            raise RenderSettingsError(f"--gaze must be finite, got {text!r}")
-        return x, y
+    point = gaze_point(text)
+    if point is not None:
+        return point
     from gaze.factory import open_source
 
     start = scene.time_range[0] if scene.time_range else 0.0
@@ -117,6 +125,13 @@ def _add_frame_arguments(p: argparse.ArgumentParser, window_help: str, window_de
     p.add_argument(
         "--threads", type=int, default=defaults.threads, help="host threads per pass (default: one per core)"
     )
+    p.add_argument(
+        "--spp",
+        type=int,
+        default=defaults.spp,
+        help="samples per pixel (--mode full, render only): N > 1 averages N stratified jittered samples in each "
+        "pixel (box filter), a converged reference at 16; 1 (default) samples the pixel centres",
+    )
 
 
 def _add_budget_arguments(p: argparse.ArgumentParser, fps_default: float | None) -> None:
@@ -162,7 +177,14 @@ def _render_settings(args: argparse.Namespace) -> RenderSettings:
         tonemap=args.tonemap,
         antialias=args.antialias,
         threads=args.threads,
+        spp=args.spp,
     )
+
+
+def _one_sample(args: argparse.Namespace, what: str) -> None:
+    """The adaptive loop renders one sample per pixel: refuse ``--spp`` > 1 for ``what``."""
+    if args.spp != 1:
+        raise RenderSettingsError(f"--spp {args.spp}: {what} renders one sample per pixel (--spp 1)")
 
 
 def _loop_settings(args: argparse.Namespace, start: float, adaptive: bool) -> LoopSettings:
@@ -259,6 +281,7 @@ def _render_on_budget(args: argparse.Namespace, source: object, settings: Render
 
     if args.warm_up < 0:
         raise RenderSettingsError(f"--warm-up must be >= 0, got {args.warm_up}")
+    _one_sample(args, "render --fps/--budget-ms (the adaptive loop)")
     t = _seconds(source, args.time)
     sample = GazeSample(gaze[0], gaze[1], t)
     loop_settings = _loop_settings(args, t, adaptive=args.mode == "hybrid")
@@ -348,6 +371,7 @@ def _cmd_replay(args: argparse.Namespace) -> int:
         raise RenderSettingsError("replay writes nothing: give --out, --stats, --summary-json or --frames-dir")
     if args.warm_up < 0:
         raise RenderSettingsError(f"--warm-up must be >= 0, got {args.warm_up}")
+    _one_sample(args, "replay")
     init_warp()
     source = open_scene_source(args.scene)
     settings = _render_settings(args)
@@ -373,6 +397,112 @@ def _cmd_replay(args: argparse.Namespace) -> int:
     if result.interrupted:
         print(f"interrupted after {result.frames} frames; outputs hold the frames done", file=sys.stderr)
         return 130
+    return 0
+
+
+def _float_list(text: str) -> list[float]:
+    """Comma-separated numbers (``0.02,0.1,0.5``)."""
+    try:
+        return [float(v) for v in text.split(",") if v.strip()]
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(f"expected comma-separated numbers, got {text!r}") from exc
+
+
+def _add_bench_parser(sub: argparse._SubParsersAction) -> None:
+    from .sweep.configs import DEFAULT_FRACTIONS, DEFAULT_LOWRES_SCALES
+
+    defaults = RenderSettings()
+    p = sub.add_parser("bench", help="speed against error: every method's time and error against a converged reference")
+    p.add_argument("scenes", nargs="+", metavar="SCENE", help="USD or mesh files")
+    p.add_argument("--gaze", default="0.5,0.5", help="where the viewer looks: X,Y normalised (default 0.5,0.5)")
+    p.add_argument("--out", required=True, help="folder for results.csv, results.md and one plot per scene")
+    p.add_argument(
+        "--size",
+        type=parse_size,
+        default=(defaults.width, defaults.height),
+        help=f"WIDTHxHEIGHT (default {defaults.width}x{defaults.height})",
+    )
+    p.add_argument("--repeats", type=int, default=3, help="timed renders per configuration (median; default 3)")
+    p.add_argument(
+        "--fractions",
+        type=_float_list,
+        default=list(DEFAULT_FRACTIONS),
+        help="hybrid window fractions (default " + ",".join(f"{f:g}" for f in DEFAULT_FRACTIONS) + ")",
+    )
+    p.add_argument(
+        "--lowres",
+        type=_float_list,
+        default=list(DEFAULT_LOWRES_SCALES),
+        help="linear scales of the upscaled low-res full ray tracing (default "
+        + ",".join(f"{s:g}" for s in DEFAULT_LOWRES_SCALES)
+        + ")",
+    )
+    p.add_argument("--reference-spp", type=int, default=16, help="samples per pixel of the reference (default 16)")
+    p.add_argument(
+        "--noise-spp",
+        type=int,
+        default=None,
+        help="also measure the reference's own noise against this many samples (e.g. 32)",
+    )
+    p.add_argument(
+        "--fovea-fraction",
+        type=float,
+        default=0.1,
+        help="the window at the gaze whose FLIP is reported as inside (default 0.1)",
+    )
+    p.add_argument("--camera", default=None, help="camera prim path (default: the first camera)")
+    p.add_argument("--device", default=defaults.device, help=f"Warp device (default {defaults.device})")
+    p.add_argument("--threads", type=int, default=defaults.threads, help="host threads per pass")
+    p.add_argument("--shadow-samples", type=int, default=defaults.shadow_samples, help="shadow samples per light")
+    p.add_argument("--max-depth", type=int, default=defaults.max_depth, help="secondary bounces per pixel")
+
+
+def _cmd_bench(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from .replay.progress import Progress
+    from .runtime import init_warp
+    from .scene.open import open_scene_source
+    from .scene.usd.camera import select_camera
+    from .sweep.configs import sweep_configs
+    from .sweep.measure import SceneSweep
+    from .sweep.report import write_results
+
+    if args.repeats < 1:
+        raise RenderSettingsError(f"--repeats must be >= 1, got {args.repeats}")
+    configs = sweep_configs(args.fractions, args.lowres)
+    gaze = gaze_point(args.gaze)
+    if gaze is None:
+        raise RenderSettingsError(f"bench --gaze must be X,Y (normalised, origin top-left), got {args.gaze!r}")
+    base = RenderSettings(
+        width=args.size[0],
+        height=args.size[1],
+        device=args.device,
+        threads=args.threads,
+        shadow_samples=args.shadow_samples,
+        max_depth=args.max_depth,
+    )
+    init_warp()
+    results, notes = {}, {}
+    with Progress(len(configs) * len(args.scenes)) as bar:
+        for path in args.scenes:
+            scene = open_scene_source(path).scene_at(None)
+            camera = select_camera(scene.cameras, args.camera, source=str(path))
+            sweep = SceneSweep(
+                scene, camera, base, gaze, args.repeats, args.reference_spp, fovea_fraction=args.fovea_fraction
+            )
+            name = Path(path).stem
+            results[name] = []
+            for config in configs:
+                results[name].append(sweep.measure(config))
+                bar.update(True)
+            note = f"reference: full, {args.reference_spp} spp, exposure {sweep.exposure_ev:+.2f} EV for every row"
+            if args.noise_spp:
+                noise = sweep.reference_noise(args.noise_spp)
+                note += f"; its own noise against {args.noise_spp} spp: FLIP {noise.flip_mean:.4f}"
+            notes[name] = note
+    for written in write_results(args.out, results, notes):
+        print(written)
     return 0
 
 
@@ -411,13 +541,14 @@ def _cmd_convert(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """The full argument parser (render, replay, info, convert, gaze)."""
+    """The full argument parser (render, replay, bench, info, convert, gaze)."""
     from gaze.cli import add_gaze_parser
 
     parser = argparse.ArgumentParser(prog="warp-hybrid", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
     _add_render_parser(sub)
     _add_replay_parser(sub)
+    _add_bench_parser(sub)
     _add_info_parser(sub)
     _add_convert_parser(sub)
     add_gaze_parser(sub)
@@ -434,6 +565,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     commands = {
         "render": _cmd_render,
         "replay": _cmd_replay,
+        "bench": _cmd_bench,
         "info": _cmd_info,
         "convert": _cmd_convert,
         "gaze": run_gaze,

@@ -10,7 +10,10 @@ A frame runs the mode's passes in order (``core.passes``), each on the frame's
 ``FrameContext``: primary visibility (raster or ray cast) -> focus region (hybrid and
 full) -> deferred lighting (raster and hybrid; it skips the window's interior) ->
 tracing (hybrid and full; in hybrid mode under the budget guard, ``trace.guard``, when the
-frame has a deadline) -> compose (hybrid) -> post.
+frame has a deadline) -> compose (hybrid) -> post.  A supersampled frame (``spp`` > 1, full
+mode; ``supersample``) runs the passes before the post once per sample, each at its own
+point in every pixel, accumulates them, renders the G-buffer once more at the pixel
+centres and posts the average.
 """
 
 from __future__ import annotations
@@ -31,10 +34,11 @@ from .focus import SHAPES, FocusRegionBuilder, FocusWindow
 from .lighting.deferred import DeferredLighting
 from .parallel import Launcher
 from .post.postprocess import TONEMAPS, PostProcess
-from .primary import Rasterizer, RayCaster
+from .primary import PrimaryVisibility, Rasterizer, RayCaster
 from .runtime import resolve_device
 from .scene.device import DeviceScene
 from .scene.model import Camera, Scene
+from .supersample import MAX_SPP, SampleAccumulator, sample_offsets, sample_step
 from .timing import Clock, StageTimer, perf_clock
 from .trace import RayTally, Tracer, TraceSettings
 from .trace.guard import GuardedTrace
@@ -52,7 +56,9 @@ class RenderSettings:
     the default focus window (a frame may pass its own).  ``exposure_ev``: None =
     automatic (key 0.18 over the log-average luminance), otherwise a fixed exposure
     in stops.  ``threads``: host threads per pass (None = one per core on the CPU,
-    1 on CUDA).
+    1 on CUDA).  ``spp``: samples per pixel, 1..``MAX_SPP``: 1 samples each pixel's
+    centre; N > 1 (full mode only) averages N sub-frames at stratified jittered points
+    (``supersample``: box filter), drawn from ``sample_seed``.
     """
 
     width: int = 640
@@ -69,6 +75,8 @@ class RenderSettings:
     tonemap: str = "aces"
     antialias: bool = True
     threads: int | None = None
+    spp: int = 1
+    sample_seed: int = 0
 
     def validate(self) -> None:
         """Raise ``RenderSettingsError`` for values that cannot be honoured."""
@@ -94,15 +102,28 @@ class RenderSettings:
             raise RenderSettingsError(f"tone mapping {self.tonemap!r} is not one of {', '.join(TONEMAPS)}")
         if self.threads is not None and self.threads < 1:
             raise RenderSettingsError(f"threads must be >= 1, got {self.threads}")
+        if isinstance(self.spp, bool) or not isinstance(self.spp, (int, np.integer)):
+            raise RenderSettingsError(f"samples per pixel must be an integer, got {self.spp!r}")
+        if not 1 <= self.spp <= MAX_SPP:
+            raise RenderSettingsError(f"samples per pixel must be in 1..{MAX_SPP}, got {self.spp}")
+        if self.spp > 1 and self.mode != "full":
+            raise RenderSettingsError(
+                f"{self.spp} samples per pixel need mode 'full' (supersampling is full ray tracing only), "
+                f"got mode {self.mode!r}"
+            )
+        if isinstance(self.sample_seed, bool) or not isinstance(self.sample_seed, (int, np.integer)):
+            raise RenderSettingsError(f"the sample seed must be an integer, got {self.sample_seed!r}")
 
 
 @dataclass
 class Frame:
     """One rendered frame.
 
-    ``color``: (H, W, 3) float32 linear radiance before exposure and tone mapping.
+    ``color``: (H, W, 3) float32 linear radiance before exposure and tone mapping (the
+    mean over the samples of a supersampled frame).
     ``visibility``: (H, W, L) float32 transmittance luminance to each light, NaN where
-    not traced.
+    not traced (supersampled: the mean over the samples that traced it).  The G-buffer
+    AOVs are the pixel centres' whatever the samples per pixel.
     ``image``: (H, W, 3) uint8 sRGB after exposure, tone mapping and anti-aliasing.
     ``stats``: JSON-ready dict (ms per stage, triangles, resolution, device, ...).
     ``gbuffer`` is the renderer's own buffer: valid until its next ``render``; so are
@@ -171,6 +192,7 @@ class Renderer:
         self.launcher = Launcher(self.device, self.settings.threads)
         self.passes = self._make_passes()
         self.buffers = self._make_buffers(self.settings.width, self.settings.height)
+        self._accumulator = SampleAccumulator(self.launcher)
         self._set_scene()
 
     def _make_passes(self) -> list[RenderPass]:
@@ -246,10 +268,11 @@ class Renderer:
 
     def warm_up(self, camera: Camera) -> float:
         """Render and discard one frame so every kernel this scene needs is compiled
-        and loaded; the time goes to ``setup_ms["warm_up"]`` (not to a frame's stages)
-        and is returned in ms."""
+        and loaded (a supersampled one with two samples: every kernel runs by then); the
+        time goes to ``setup_ms["warm_up"]`` (not to a frame's stages) and is returned
+        in ms."""
         start = self.clock()
-        self.render(camera)
+        self._render(camera, None, None, True, min(self.settings.spp, 2))
         elapsed = (self.clock() - start) * 1000.0
         self.setup_ms["warm_up"] = elapsed
         return elapsed
@@ -287,7 +310,15 @@ class Renderer:
         (``trace.guard``), and the stats say how much was traced.  ``host_copies``: copy
         ``color`` and ``visibility`` to the host within the frame (False: only the
         image; they are read from the device on first use, until the next ``render``).
+        With ``spp`` > 1 the frame's stages sum over its samples and the ray counts
+        cover them all (``traced_pixels`` is spp x the pixels).
         """
+        return self._render(camera, window, trace_deadline, host_copies, self.settings.spp)
+
+    def _render(
+        self, camera: Camera, window: FocusWindow | None, trace_deadline: float | None, host_copies: bool, spp: int
+    ) -> Frame:
+        """``render`` with ``spp`` samples per pixel."""
         s = self.settings
         if s.mode == "hybrid":
             window = window or self.default_window()
@@ -300,8 +331,11 @@ class Renderer:
             window=window,
             trace_deadline=trace_deadline if s.mode == "hybrid" else None,
         )
-        for p in self.passes:
-            p.execute(frame)
+        if spp == 1:
+            for p in self.passes:
+                p.execute(frame)
+        else:
+            self._render_samples(camera, frame, spp)
         with frame.timer.stage("readback"):
             image = np.array(frame.image.numpy(), copy=True)
             rays = frame.rays.counts() if frame.rays is not None else None
@@ -315,6 +349,7 @@ class Renderer:
             "device": str(self.device.alias),
             "mode": s.mode,
             "primary": s.primary,
+            "spp": spp,
             "resolution": [s.width, s.height],
             "triangles": self.scene.triangle_count,
             "threads": self.launcher.threads,
@@ -331,6 +366,32 @@ class Renderer:
             stats["guard"] = dataclasses.asdict(guard)
         out.stats = stats
         return out
+
+    def _render_samples(self, camera: Camera, frame: FrameContext, spp: int) -> None:
+        """A supersampled frame: every pass but the post once per sample, each sub-frame's
+        colour and visibility added to the sums (stage "accumulate"); then the primary
+        pass again at the pixel centres (the G-buffer AOVs and the exposure's hit mask
+        are those of one sample per pixel), the average, and the post."""
+        s = self.settings
+        post = self._post
+        sampled = [p for p in self.passes if p is not post]
+        step = sample_step(spp)
+        for k, (sx, sy) in enumerate(sample_offsets(spp, s.sample_seed)):
+            frame.sample_index = k
+            frame.camera = make_camera_gpu(camera, s.width, s.height, sample=(sx, sy), sample_step=step)
+            for p in sampled:
+                p.execute(frame)
+            with frame.timer.stage("accumulate"):
+                self._accumulator.add(self.buffers, first=k == 0)
+        frame.camera = make_camera_gpu(camera, s.width, s.height)
+        self._primary.execute(frame)
+        with frame.timer.stage("accumulate"):
+            self._accumulator.average(self.buffers, spp)
+        post.execute(frame)
+
+    @property
+    def _primary(self) -> PrimaryVisibility:
+        return next(p for p in self.passes if isinstance(p, PrimaryVisibility))
 
     @property
     def _guard(self) -> GuardedTrace | None:

@@ -5,6 +5,16 @@ Screen space: x right, y down (row 0 at the top), pixel (x, y) has its centre at
 ``forward + ndc_x * tan_x * right + ndc_y * tan_y * up`` with
 ``ndc_x = 2 px / width - 1`` and ``ndc_y = 1 - 2 py / height``: its component along
 ``forward`` is 1, so a ray parameter along it *is* the view depth.
+
+**The sample point.** A frame samples every pixel at the same point inside it,
+``CameraGPU.sample`` (offset from the pixel's top-left corner; (0.5, 0.5), the centre,
+unless a supersampled frame jitters it): ``pixel_ray`` goes through (x + sample.x,
+y + sample.y), and the raster coverage tests that point (``primary.coverage`` shifts
+the snapped corners by 0.5 - sample in whole fixed-point units).  The offset is
+snapped to the raster's fixed-point grid (``SAMPLE_GRID`` steps per pixel) so that
+shift is exact and the coverage test and the camera ray sample the same point.
+``sample_step`` is the spacing of a supersampled frame's samples in pixels ((1, 1)
+with one sample per pixel): the ray differentials of the texture footprint span it.
 """
 
 from __future__ import annotations
@@ -32,10 +42,36 @@ class CameraGPU:
     height: int
     near: float
     far: float
+    sample: wp.vec2
+    sample_step: wp.vec2
 
 
-def make_camera_gpu(camera: Camera, width: int, height: int) -> CameraGPU:
-    """Build the kernel-side camera for an image of ``width`` x ``height`` pixels."""
+#: Sample offsets are multiples of 1 / SAMPLE_GRID pixel: the raster's fixed-point
+#: grid (``primary.coverage.SUBPIXEL``).
+SAMPLE_GRID = 256
+#: The pixel centre, the sample point of a frame with one sample per pixel.
+PIXEL_CENTRE = (0.5, 0.5)
+
+
+def snap_sample(offset: float) -> float:
+    """A sample offset (pixels from the pixel's corner, in [0, 1]) on the fixed-point grid."""
+    return round(float(offset) * SAMPLE_GRID) / SAMPLE_GRID
+
+
+def make_camera_gpu(
+    camera: Camera,
+    width: int,
+    height: int,
+    sample: tuple[float, float] = PIXEL_CENTRE,
+    sample_step: tuple[float, float] = (1.0, 1.0),
+) -> CameraGPU:
+    """Build the kernel-side camera for an image of ``width`` x ``height`` pixels that
+    samples each pixel at ``sample`` (snapped to the fixed-point grid; default the
+    centre) with samples ``sample_step`` pixels apart (see the module docstring)."""
+    if not all(0.0 <= v <= 1.0 for v in sample):
+        raise ValueError(f"a sample offset must lie in the pixel, [0, 1]^2, got {tuple(sample)}")
+    if not all(0.0 < v <= 1.0 for v in sample_step):
+        raise ValueError(f"the sample step must be in (0, 1] pixels, got {tuple(sample_step)}")
     m = np.asarray(camera.cam_to_world, dtype=np.float64)
     right = m[:3, 0] / np.linalg.norm(m[:3, 0])
     up = m[:3, 1] / np.linalg.norm(m[:3, 1])
@@ -51,6 +87,8 @@ def make_camera_gpu(camera: Camera, width: int, height: int) -> CameraGPU:
     c.height = int(height)
     c.near = float(camera.near)
     c.far = float(camera.far)
+    c.sample = wp.vec2(snap_sample(sample[0]), snap_sample(sample[1]))
+    c.sample_step = wp.vec2(float(sample_step[0]), float(sample_step[1]))
     return c
 
 
@@ -65,11 +103,12 @@ def camera_ray(cam: CameraGPU, px: float, py: float) -> wp.vec3:
 
 @wp.func(inline=True)
 def pixel_ray(cam: CameraGPU, x: int, y: int) -> wp.vec3:
-    """``camera_ray`` through the centre of pixel (x, y)."""
-    return camera_ray(cam, float(x) + 0.5, float(y) + 0.5)
+    """``camera_ray`` through the sample point of pixel (x, y) (its centre unless the
+    frame is supersampled)."""
+    return camera_ray(cam, float(x) + cam.sample[0], float(y) + cam.sample[1])
 
 
 @wp.func(inline=True)
 def pixel_ray_direction(cam: CameraGPU, x: int, y: int) -> wp.vec3:
-    """Unit direction of the camera ray through the centre of pixel (x, y)."""
+    """Unit direction of the camera ray through the sample point of pixel (x, y)."""
     return wp.normalize(pixel_ray(cam, x, y))

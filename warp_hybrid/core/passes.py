@@ -53,7 +53,11 @@ class FrameBuffers:
 class FrameContext:
     """Everything one frame's passes share, explicitly: the camera, the stage timer,
     the buffers, this frame's focus window, and what passes produce for later ones
-    (the focus region, the ray tally, the image)."""
+    (the focus region, the ray tally, the image).
+
+    A supersampled frame runs its passes once per sample (sub-frame): ``camera``
+    samples sub-frame ``sample_index``'s point in each pixel, and passes that keep
+    per-frame totals (the ray tally) start them at sample 0 only."""
 
     camera: CameraGPU
     timer: StageTimer
@@ -64,6 +68,7 @@ class FrameContext:
     rays: RayTally | None = None
     image: Any = None
     stats: dict[str, Any] = field(default_factory=dict)
+    sample_index: int = 0
 
     @property
     def gbuffer(self) -> GBuffer:

@@ -10,13 +10,20 @@ covered twice.  Each covered pixel gets one ``atomic_min`` of a 64-bit *depth ke
 in the low 32, so equal depths resolve to the smaller id.  Alpha cut-outs are tested
 per fragment and skipped below their threshold.  Screen space: x right, y down, pixel
 (i, j) has its centre at (i + 0.5, j + 0.5).
+
+The point tested in each pixel is the camera's sample point (``CameraGPU.sample``, the
+centre unless the frame is supersampled): the snapped corners are shifted by
+``0.5 - sample``, which the camera keeps on the fixed-point grid, so the shift is a
+whole number of units, exact, and the same for every triangle sharing a corner (still
+watertight); the centres tested against the shifted corners are the sample points
+against the true ones.  At the centre the shift is 0 and nothing changes.
 """
 
 from __future__ import annotations
 
 import warp as wp
 
-from ..core.camera import CameraGPU, pixel_ray
+from ..core.camera import SAMPLE_GRID, CameraGPU, pixel_ray
 from ..core.scene_gpu import FLAG_CUTOUT, SceneGPU
 from ..scene.device.surface import is_cut_away
 from .hit_record import ray_triangle, triangle_points
@@ -27,8 +34,9 @@ EMPTY_KEY = wp.constant(wp.uint64(0xFFFFFFFFFFFFFFFF))
 MODE_DEPTH = wp.constant(0)
 MODE_COUNT = wp.constant(1)
 # Fixed point: 8 sub-pixel bits (coordinates stay below 2^27 units inside the guard
-# band of ``clipping.py``, so edge-function products fit an int64 exactly).
-SUBPIXEL = wp.constant(wp.int64(256))
+# band of ``clipping.py``, so edge-function products fit an int64 exactly), the grid
+# sample offsets are snapped to.
+SUBPIXEL = wp.constant(wp.int64(SAMPLE_GRID))
 HALF_SUBPIXEL = wp.constant(wp.int64(128))
 # Triangles whose pixel bounding box is narrower than this test every pixel in it
 # rather than narrowing each row's span first.
@@ -105,13 +113,15 @@ def raster_triangle(
     target: RasterTarget,
 ):
     """Rasterize one projected triangle (screen x, screen y, view depth per corner)
-    into ``target``."""
-    ax = _fixed(a[0])
-    ay = _fixed(a[1])
-    bx = _fixed(b[0])
-    by = _fixed(b[1])
-    cx = _fixed(c[0])
-    cy = _fixed(c[1])
+    into ``target``, sampled at the camera's sample point (see the module docstring)."""
+    shift_x = _fixed(0.5 - cam.sample[0])
+    shift_y = _fixed(0.5 - cam.sample[1])
+    ax = _fixed(a[0]) + shift_x
+    ay = _fixed(a[1]) + shift_y
+    bx = _fixed(b[0]) + shift_x
+    by = _fixed(b[1]) + shift_y
+    cx = _fixed(c[0]) + shift_x
+    cy = _fixed(c[1]) + shift_y
     za = a[2]
     zb = b[2]
     zc = c[2]

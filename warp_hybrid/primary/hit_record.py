@@ -17,10 +17,11 @@ from ..scene.device.surface import uv_footprint
 
 @wp.func(inline=True)
 def pixel_footprint(scene: SceneGPU, cam: CameraGPU, tri: int, d: wp.vec3) -> wp.vec4:
-    """uv footprint (du/dx, dv/dx, du/dy, dv/dy) on triangle ``tri`` of the pixel whose
-    camera ray is ``d``: the ray differentials of one pixel step right and down."""
-    ddx = cam.right * (2.0 * cam.tan_x / float(cam.width))
-    ddy = cam.up * (-2.0 * cam.tan_y / float(cam.height))
+    """uv footprint (du/dx, dv/dx, du/dy, dv/dy) on triangle ``tri`` of the pixel sample
+    whose camera ray is ``d``: the ray differentials of one sample step right and down
+    (one pixel, unless the frame is supersampled: ``CameraGPU.sample_step``)."""
+    ddx = cam.right * (2.0 * cam.tan_x / float(cam.width) * cam.sample_step[0])
+    ddy = cam.up * (-2.0 * cam.tan_y / float(cam.height) * cam.sample_step[1])
     return uv_footprint(scene, tri, cam.origin, d, ddx, ddy)
 
 

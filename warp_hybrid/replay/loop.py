@@ -36,7 +36,7 @@ from ..timing import Clock, perf_clock
 #: The stages that trace; the controller's cost map learns their time.
 TRACE_STAGES = ("trace_setup", "trace_shadow", "trace_secondary")
 #: The stages after tracing (the controller reserves their time behind the deadline).
-AFTER_TRACE_STAGES = ("relight", "compose", "tonemap", "aa", "readback", "adapt")
+AFTER_TRACE_STAGES = ("relight", "accumulate", "compose", "tonemap", "aa", "readback", "adapt")
 #: Every stage a frame can report, in frame order (the stats CSV's stage columns).
 FRAME_STAGES = (
     "scene_update",

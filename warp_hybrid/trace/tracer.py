@@ -46,7 +46,8 @@ class TraceSettings:
     ``max_depth``: secondary bounces (reflection/refraction) per path, 0..8.
     ``shadow_samples``: 1 = hard shadows from each light's centre; N > 1 = N samples
     over sphere, rect, disk and angular distant lights (soft shadows).
-    ``seed``: seeds the soft-shadow samples (per pixel, deterministic).
+    ``seed``: seeds the soft-shadow samples (per pixel, deterministic); sample k of a
+    supersampled frame uses ``sample_seed(seed, k)``.
     """
 
     max_depth: int = 3
@@ -59,6 +60,19 @@ class TraceSettings:
             raise RenderSettingsError(f"max depth must be in 0..{MAX_DEPTH}, got {self.max_depth}")
         if self.shadow_samples < 1:
             raise RenderSettingsError(f"shadow samples must be >= 1, got {self.shadow_samples}")
+
+
+#: The soft-shadow seed's step per sample: a prime no sum of the kernel's own steps per
+#: light (7919) and per path segment (104729) reaches for 256 samples, 64 lights and 16
+#: segments, and small enough that the seeds of 256 samples stay far from int32 overflow.
+SAMPLE_SEED_STEP = 1000003
+
+
+def sample_seed(seed: int, sample_index: int) -> int:
+    """The soft-shadow seed of sub-frame ``sample_index`` of a supersampled frame:
+    ``seed`` itself for sample 0, then one ``SAMPLE_SEED_STEP`` per sample, so each
+    sample draws other shadow samples and soft shadows converge too."""
+    return int(seed) + int(sample_index) * SAMPLE_SEED_STEP
 
 
 class Tracer(RenderPass):
@@ -92,14 +106,24 @@ class Tracer(RenderPass):
 
     def execute(self, frame: FrameContext) -> None:
         """Trace ``frame.region`` into the frame's traced layer and visibility AOV (NaN
-        outside the region); the ray counts go to ``frame.rays``."""
+        outside the region); the ray counts go to ``frame.rays`` (summed over the
+        samples of a supersampled frame)."""
         assert self.scene is not None and frame.region is not None, "set_scene and a focus region first"
         b = frame.buffers
-        self.begin_frame(b.gbuffer.width, b.gbuffer.height)
+        if frame.sample_index == 0:
+            self.begin_frame(b.gbuffer.width, b.gbuffer.height)
         b.visibility.fill_(float("nan"))
         region = frame.region
         frame.rays = self.trace(
-            self.scene, frame.camera, b.gbuffer, region.pixels, region.count, b.traced_color, b.visibility, frame.timer
+            self.scene,
+            frame.camera,
+            b.gbuffer,
+            region.pixels,
+            region.count,
+            b.traced_color,
+            b.visibility,
+            frame.timer,
+            sample_index=frame.sample_index,
         )
 
     def begin_frame(self, width: int, height: int) -> RayTally:
@@ -152,12 +176,12 @@ class Tracer(RenderPass):
             self._counts = wp.empty((shape_t[0], COUNT_COLUMNS), dtype=wp.int32, device=dev)
         return self._transmittance, self._counts
 
-    def _params(self, occluders: Occluders) -> TraceParams:
+    def _params(self, occluders: Occluders, sample_index: int) -> TraceParams:
         p = TraceParams()
         p.scale = occluders.scale
         p.max_depth = self.settings.max_depth
         p.shadow_samples = self.settings.shadow_samples
-        p.seed = self.settings.seed
+        p.seed = sample_seed(self.settings.seed, sample_index)
         return p
 
     @staticmethod
@@ -190,6 +214,7 @@ class Tracer(RenderPass):
         color_out: wp.array,
         visibility_out: wp.array,
         timer: StageTimer,
+        sample_index: int = 0,
     ) -> RayTally:
         """Trace the first ``count`` pixels of ``pixels`` (int32 flat indices row * W + col).
 
@@ -200,7 +225,9 @@ class Tracer(RenderPass):
         untouched.  Stages "trace_shadow" and "trace_secondary" go to ``timer`` (and
         "trace_setup" when the shadow BVHs are built, on the first call for a scene).
         The ray counts are added to the frame's tally (``begin_frame`` clears it; the
-        first call for a tracer does), which is returned, still on the device.  Raises
+        first call for a tracer does), which is returned, still on the device.
+        ``sample_index``: the sub-frame of a supersampled frame (its soft-shadow seed,
+        ``sample_seed``).  Raises
         ``ValueError`` on mismatched shapes or a scene needing effects the tracer was not
         built for."""
         self.set_scene(scene)
@@ -214,7 +241,7 @@ class Tracer(RenderPass):
         occluders = self._occluders_for(scene, timer)
         tf = TraceFrame()
         tf.cam = camera
-        tf.params = self._params(occluders)
+        tf.params = self._params(occluders, sample_index)
         tf.occ = occluders.gpu
         tf.gb = gbuffer.kernel_arrays()
         tf.pixels = pixels

@@ -47,8 +47,8 @@ def measure_scene(path: str, width: int, height: int, repeats: int) -> dict:
         return renderer.render(camera).stats["stages_ms"]
 
     stages = median_ms(frame, repeats)
-    raster_gb = renderer.gbuffer.aovs()
-    raster_ids = renderer.gbuffer.triangle_id.numpy().copy()
+    raster_gb = renderer.buffers.gbuffer.aovs()
+    raster_ids = renderer.buffers.gbuffer.triangle_id.numpy().copy()
 
     cam = make_camera_gpu(camera, width, height)
     ray_gb = GBuffer(width, height, renderer.device)
@@ -56,7 +56,6 @@ def measure_scene(path: str, width: int, height: int, repeats: int) -> dict:
 
     def cast() -> dict[str, float]:
         timer = StageTimer()
-        ray_gb.clear()
         caster.render(renderer.device_scene, cam, ray_gb, timer)
         return {"raycast": timer.stages_ms["raycast"]}
 

@@ -9,7 +9,7 @@ cd "$(dirname "$0")/.."
 LOG="${OUT:-out/gpu_check}"
 mkdir -p "$LOG"
 export PYTHONUNBUFFERED=1
-make .venv/.installed-stamp >/dev/null 2>&1 || make test --dry-run >/dev/null
+make .venv/.installed-stamp >/dev/null  # the venv, as make test sets it up
 nvidia-smi > "$LOG/nvidia-smi.txt" 2>&1 || true
 WARP_HYBRID_TEST_DEVICES=cpu,cuda:0 .venv/bin/python -m pytest -q -p no:cacheprovider 2>&1 | tee "$LOG/tests.txt" | tail -5
 for mode in raster hybrid full; do

@@ -20,7 +20,6 @@ from .focus import SHAPES
 from .post.postprocess import TONEMAPS
 from .renderer import MODES, PRIMARY_PATHS, RenderSettings
 from .replay.loop import LoopSettings
-from .scene.model import Scene
 
 
 def parse_size(text: str) -> tuple[int, int]:
@@ -58,16 +57,14 @@ def gaze_point(text: str) -> tuple[float, float] | None:
     return x, y
 
 
-def resolve_gaze(text: str, scene: Scene) -> tuple[float, float]:
+def resolve_gaze(text: str, seconds: float) -> tuple[float, float]:
     """The gaze point for a frame: ``X,Y`` as given, or a gaze source spec sampled at
-    the scene's time in seconds from the start of its time range."""
+    the frame's time, ``seconds`` from the start of the stage's time range."""
     point = gaze_point(text)
     if point is not None:
         return point
     from gaze.factory import open_source
 
-    start = scene.time_range[0] if scene.time_range else 0.0
-    seconds = (scene.time - start) / scene.time_codes_per_second
     with open_source(text) as source:
         sample = source.sample(seconds)
     return float(sample.x), float(sample.y)
@@ -227,15 +224,6 @@ def _add_render_parser(sub: argparse._SubParsersAction) -> None:
     )
 
 
-def _seconds(source: object, time_code: float | None) -> float:
-    """Seconds from the start of the stage's time range to ``time_code`` (None: 0)."""
-    if time_code is None:
-        return 0.0
-    info = source.info  # type: ignore[attr-defined]
-    start = info.time_range[0] if info.time_range else info.default_time
-    return (time_code - start) / info.time_codes_per_second
-
-
 def _cmd_render(args: argparse.Namespace) -> int:
     from .output import write_aovs, write_json, write_png
     from .renderer import Renderer
@@ -250,7 +238,7 @@ def _cmd_render(args: argparse.Namespace) -> int:
     load_ms = (time.perf_counter() - t0) * 1000.0
     camera = select_camera(scene.cameras, args.camera, source=str(args.scene))
     settings = _render_settings(args)
-    gaze = resolve_gaze(args.gaze, scene)
+    gaze = resolve_gaze(args.gaze, source.info.seconds(scene.time))
     if args.fps is not None or args.budget_ms is not None:
         frame = _render_on_budget(args, source, settings, gaze)
     else:
@@ -282,7 +270,7 @@ def _render_on_budget(args: argparse.Namespace, source: object, settings: Render
     if args.warm_up < 0:
         raise RenderSettingsError(f"--warm-up must be >= 0, got {args.warm_up}")
     _one_sample(args, "render --fps/--budget-ms (the adaptive loop)")
-    t = _seconds(source, args.time)
+    t = source.info.seconds(args.time if args.time is not None else source.info.default_time)
     sample = GazeSample(gaze[0], gaze[1], t)
     loop_settings = _loop_settings(args, t, adaptive=args.mode == "hybrid")
     with AdaptiveLoop(source, settings, loop_settings, camera_path=args.camera) as loop:

@@ -170,9 +170,7 @@ class AdaptiveLoop:
 
     def time_code(self, seconds: float) -> float:
         """The stage time code shown ``seconds`` after the start of its time range."""
-        info = self.source.info
-        start = info.time_range[0] if info.time_range else info.default_time
-        return start + seconds * info.time_codes_per_second
+        return self.source.info.time_code(seconds)
 
     def close(self) -> None:
         """Release the renderer's threads."""

@@ -23,7 +23,7 @@ import numpy as np
 import warp as wp
 
 from ..focus import FocusWindow
-from ..metrics import ErrorReport, ViewingSetup, evaluate
+from ..metrics import ErrorReport, ViewingSetup, evaluate, layout_mask
 from ..parallel import Launcher
 from ..post.postprocess import PostProcess
 from ..renderer import Renderer, RenderSettings
@@ -47,13 +47,6 @@ class Measurement:
 def _median_stages(runs: list[dict[str, float]]) -> dict[str, float]:
     names = sorted({k for r in runs for k in r})
     return {k: statistics.median(r.get(k, 0.0) for r in runs) for k in names}
-
-
-def window_mask(window: FocusWindow, width: int, height: int) -> np.ndarray:
-    """(H, W) bool: the pixels ``window`` covers."""
-    start, stop = window.layout(width, height).row_spans()
-    cols = np.arange(width)
-    return (cols[None, :] >= start[:, None]) & (cols[None, :] < stop[:, None])
 
 
 class SceneSweep:
@@ -80,7 +73,7 @@ class SceneSweep:
         self.reference_spp = reference_spp
         self.viewing = viewing or ViewingSetup()
         self.device_scene = DeviceScene(scene, base.device)
-        self.fovea = window_mask(FocusWindow(gaze, fovea_fraction, base.window_shape), base.width, base.height)
+        self.fovea = layout_mask(FocusWindow(gaze, fovea_fraction, base.window_shape).layout(base.width, base.height))
         self.exposure_ev: float | None = None
         self._reference: tuple[np.ndarray, np.ndarray] | None = None
 

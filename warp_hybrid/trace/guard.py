@@ -39,11 +39,6 @@ class GuardReport:
     planned_fraction: float
     traced_fraction: float
 
-    @property
-    def stopped_early(self) -> bool:
-        """Tracing stopped before the planned window was done."""
-        return self.rings_traced < self.rings
-
 
 class GuardedTrace(RenderPass):
     """The tracing pass of a hybrid frame, with the budget guard (module docstring)."""

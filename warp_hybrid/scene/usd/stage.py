@@ -34,6 +34,14 @@ class StageInfo:
     time_codes_per_second: float
     default_time: float
 
+    def seconds(self, time_code: float) -> float:
+        """Seconds from the start of the time range (or time code 0) to ``time_code``."""
+        return (time_code - self.default_time) / self.time_codes_per_second
+
+    def time_code(self, seconds: float) -> float:
+        """The time code ``seconds`` after the start of the time range (or time code 0)."""
+        return self.default_time + seconds * self.time_codes_per_second
+
 
 def _tf_reason(exc: Exception) -> str:
     """The first quoted message of a ``Tf.ErrorException`` (pxr wraps the useful text

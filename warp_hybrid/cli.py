@@ -129,6 +129,18 @@ def _add_frame_arguments(p: argparse.ArgumentParser, window_help: str, window_de
         help="samples per pixel (--mode full, render only): N > 1 averages N stratified jittered samples in each "
         "pixel (box filter), a converged reference at 16; 1 (default) samples the pixel centres",
     )
+    _add_fovea_spp_argument(p)
+
+
+def _add_fovea_spp_argument(p: argparse.ArgumentParser) -> None:
+    """``--fovea-spp``: samples per pixel inside the focus window."""
+    p.add_argument(
+        "--fovea-spp",
+        type=int,
+        default=RenderSettings().fovea_spp,
+        help="samples per pixel inside the focus window (--mode hybrid, fixed window): the same stratified jitter as "
+        "--spp, so the time saved outside the window buys a better fovea (default 1)",
+    )
 
 
 def _add_budget_arguments(p: argparse.ArgumentParser, fps_default: float | None) -> None:
@@ -175,13 +187,16 @@ def _render_settings(args: argparse.Namespace) -> RenderSettings:
         antialias=args.antialias,
         threads=args.threads,
         spp=args.spp,
+        fovea_spp=args.fovea_spp,
     )
 
 
 def _one_sample(args: argparse.Namespace, what: str) -> None:
-    """The adaptive loop renders one sample per pixel: refuse ``--spp`` > 1 for ``what``."""
-    if args.spp != 1:
-        raise RenderSettingsError(f"--spp {args.spp}: {what} renders one sample per pixel (--spp 1)")
+    """The adaptive loop renders one sample per pixel: refuse ``--spp`` or
+    ``--fovea-spp`` > 1 for ``what``."""
+    for flag, value in (("--spp", args.spp), ("--fovea-spp", args.fovea_spp)):
+        if value != 1:
+            raise RenderSettingsError(f"{flag} {value}: {what} renders one sample per pixel ({flag} 1)")
 
 
 def _loop_settings(args: argparse.Namespace, start: float, adaptive: bool) -> LoopSettings:
@@ -323,6 +338,13 @@ def _add_replay_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--overlay", action="store_true", help="draw the focus window and the gaze point on the video")
     p.add_argument("--frames-dir", default=None, help="also write each frame as a PNG here")
     p.add_argument("--warm-up", type=int, default=3, help="untimed frames before the replay (default 3)")
+    p.add_argument(
+        "--error-csv",
+        default=None,
+        help="per-frame error against full ray-traced references of the same frames (FLIP, foveated FLIP, FLIP "
+        "inside/outside the window, PSNR), measured after the timed frames",
+    )
+    p.add_argument("--error-spp", type=int, default=16, help="samples per pixel of those references (default 16)")
 
 
 def _replay_frames(args: argparse.Namespace, source: object, gaze_source: object) -> int:
@@ -355,8 +377,12 @@ def _cmd_replay(args: argparse.Namespace) -> int:
     from .runtime import init_warp
     from .scene.open import open_scene_source
 
-    if not (args.out or args.stats or args.summary_json or args.frames_dir):
-        raise RenderSettingsError("replay writes nothing: give --out, --stats, --summary-json or --frames-dir")
+    if not (args.out or args.stats or args.summary_json or args.frames_dir or args.error_csv):
+        raise RenderSettingsError(
+            "replay writes nothing: give --out, --stats, --summary-json, --frames-dir or --error-csv"
+        )
+    if args.error_csv:
+        RenderSettings(mode="full", spp=args.error_spp).validate()
     if args.warm_up < 0:
         raise RenderSettingsError(f"--warm-up must be >= 0, got {args.warm_up}")
     _one_sample(args, "replay")
@@ -370,6 +396,8 @@ def _cmd_replay(args: argparse.Namespace) -> int:
         summary_json=Path(args.summary_json) if args.summary_json else None,
         frames_dir=Path(args.frames_dir) if args.frames_dir else None,
         overlay=args.overlay,
+        errors=Path(args.error_csv) if args.error_csv else None,
+        error_spp=args.error_spp,
     )
     with open_source(args.gaze) as gaze_source:
         frames = _replay_frames(args, source, gaze_source)
@@ -427,6 +455,14 @@ def _add_bench_parser(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--reference-spp", type=int, default=16, help="samples per pixel of the reference (default 16)")
     p.add_argument(
+        "--exposure",
+        type=parse_exposure,
+        default=None,
+        help="one exposure for the reference and every configuration: stops (EV), or 'auto' (default: metered "
+        "once on the reference)",
+    )
+    _add_fovea_spp_argument(p)
+    p.add_argument(
         "--noise-spp",
         type=int,
         default=None,
@@ -458,7 +494,7 @@ def _cmd_bench(args: argparse.Namespace) -> int:
 
     if args.repeats < 1:
         raise RenderSettingsError(f"--repeats must be >= 1, got {args.repeats}")
-    configs = sweep_configs(args.fractions, args.lowres)
+    configs = sweep_configs(args.fractions, args.lowres, args.fovea_spp)
     gaze = gaze_point(args.gaze)
     if gaze is None:
         raise RenderSettingsError(f"bench --gaze must be X,Y (normalised, origin top-left), got {args.gaze!r}")
@@ -469,10 +505,12 @@ def _cmd_bench(args: argparse.Namespace) -> int:
         threads=args.threads,
         shadow_samples=args.shadow_samples,
         max_depth=args.max_depth,
+        exposure_ev=args.exposure,
     )
+    base.validate()
     init_warp()
     results, notes = {}, {}
-    with Progress(len(configs) * len(args.scenes)) as bar:
+    with Progress(len(configs) * len(args.scenes), unit="config", budgeted=False) as bar:
         for path in args.scenes:
             scene = open_scene_source(path).scene_at(None)
             camera = select_camera(scene.cameras, args.camera, source=str(path))
@@ -483,7 +521,7 @@ def _cmd_bench(args: argparse.Namespace) -> int:
             results[name] = []
             for config in configs:
                 results[name].append(sweep.measure(config))
-                bar.update(True)
+                bar.update()
             note = f"reference: full, {args.reference_spp} spp, exposure {sweep.exposure_ev:+.2f} EV for every row"
             if args.noise_spp:
                 noise = sweep.reference_noise(args.noise_spp)

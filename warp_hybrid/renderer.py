@@ -41,6 +41,7 @@ from .scene.model import Camera, Scene
 from .supersample import MAX_SPP, SampleAccumulator, sample_offsets, sample_step
 from .timing import Clock, StageTimer, perf_clock
 from .trace import RayTally, Tracer, TraceSettings
+from .trace.fovea import FoveaSampler
 from .trace.guard import GuardedTrace
 
 PRIMARY_PATHS = ("raster", "raycast")
@@ -58,7 +59,9 @@ class RenderSettings:
     in stops.  ``threads``: host threads per pass (None = one per core on the CPU,
     1 on CUDA).  ``spp``: samples per pixel, 1..``MAX_SPP``: 1 samples each pixel's
     centre; N > 1 (full mode only) averages N sub-frames at stratified jittered points
-    (``supersample``: box filter), drawn from ``sample_seed``.
+    (``supersample``: box filter), drawn from ``sample_seed``.  ``fovea_spp``: samples
+    per pixel inside the focus window (hybrid mode only; ``trace.fovea``): N > 1 traces
+    the window with the same N-sample pattern, the rest of the frame stays at one.
     """
 
     width: int = 640
@@ -76,6 +79,7 @@ class RenderSettings:
     antialias: bool = True
     threads: int | None = None
     spp: int = 1
+    fovea_spp: int = 1
     sample_seed: int = 0
 
     def validate(self) -> None:
@@ -102,15 +106,17 @@ class RenderSettings:
             raise RenderSettingsError(f"tone mapping {self.tonemap!r} is not one of {', '.join(TONEMAPS)}")
         if self.threads is not None and self.threads < 1:
             raise RenderSettingsError(f"threads must be >= 1, got {self.threads}")
-        if isinstance(self.spp, bool) or not isinstance(self.spp, (int, np.integer)):
-            raise RenderSettingsError(f"samples per pixel must be an integer, got {self.spp!r}")
-        if not 1 <= self.spp <= MAX_SPP:
-            raise RenderSettingsError(f"samples per pixel must be in 1..{MAX_SPP}, got {self.spp}")
-        if self.spp > 1 and self.mode != "full":
-            raise RenderSettingsError(
-                f"{self.spp} samples per pixel need mode 'full' (supersampling is full ray tracing only), "
-                f"got mode {self.mode!r}"
-            )
+        for name, what, mode in (
+            ("spp", "samples per pixel", "full"),
+            ("fovea_spp", "window samples per pixel", "hybrid"),
+        ):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+                raise RenderSettingsError(f"{what} must be an integer, got {value!r}")
+            if not 1 <= value <= MAX_SPP:
+                raise RenderSettingsError(f"{what} must be in 1..{MAX_SPP}, got {value}")
+            if value > 1 and self.mode != mode:
+                raise RenderSettingsError(f"{value} {what} need mode {mode!r}, got mode {self.mode!r}")
         if isinstance(self.sample_seed, bool) or not isinstance(self.sample_seed, (int, np.integer)):
             raise RenderSettingsError(f"the sample seed must be an integer, got {self.sample_seed!r}")
 
@@ -210,7 +216,11 @@ class Renderer:
                 passes.append(tracer)
             else:
                 lighting = DeferredLighting(self.launcher)
-                passes += [lighting, GuardedTrace(tracer, focus, lighting), Compositor(self.launcher)]
+                if s.fovea_spp > 1:
+                    trace: RenderPass = FoveaSampler(tracer, s.fovea_spp, s.sample_seed)
+                else:
+                    trace = GuardedTrace(tracer, focus, lighting)
+                passes += [lighting, trace, Compositor(self.launcher)]
         passes.append(PostProcess(self.launcher, s.exposure_ev, s.tonemap, s.antialias))
         return passes
 
@@ -237,7 +247,7 @@ class Renderer:
     def tracer(self) -> Tracer | None:
         """The tracer (None in raster mode)."""
         for p in self.passes:
-            if isinstance(p, GuardedTrace):
+            if isinstance(p, (GuardedTrace, FoveaSampler)):
                 return p.tracer
             if isinstance(p, Tracer):
                 return p
@@ -320,6 +330,10 @@ class Renderer:
     ) -> Frame:
         """``render`` with ``spp`` samples per pixel."""
         s = self.settings
+        if trace_deadline is not None and s.fovea_spp > 1:
+            raise RenderSettingsError(
+                "a supersampled window (fovea_spp > 1) has no budget guard: pass no trace deadline"
+            )
         if s.mode == "hybrid":
             window = window or self.default_window()
         else:
@@ -330,6 +344,7 @@ class Renderer:
             buffers=self.buffers,
             window=window,
             trace_deadline=trace_deadline if s.mode == "hybrid" else None,
+            view=camera,
         )
         if spp == 1:
             for p in self.passes:
@@ -350,6 +365,7 @@ class Renderer:
             "mode": s.mode,
             "primary": s.primary,
             "spp": spp,
+            "fovea_spp": s.fovea_spp,
             "resolution": [s.width, s.height],
             "triangles": self.scene.triangle_count,
             "threads": self.launcher.threads,
@@ -382,11 +398,11 @@ class Renderer:
             for p in sampled:
                 p.execute(frame)
             with frame.timer.stage("accumulate"):
-                self._accumulator.add(self.buffers, first=k == 0)
+                self._accumulator.add(self.buffers.color, self.buffers.visibility, first=k == 0)
         frame.camera = make_camera_gpu(camera, s.width, s.height)
         self._primary.execute(frame)
         with frame.timer.stage("accumulate"):
-            self._accumulator.average(self.buffers, spp)
+            self._accumulator.average(spp, self.buffers.color, self.buffers.visibility)
         post.execute(frame)
 
     @property

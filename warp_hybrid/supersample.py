@@ -31,7 +31,7 @@ import numpy as np
 import warp as wp
 
 from .core.camera import SAMPLE_GRID
-from .core.passes import FrameBuffers
+from .core.pixel_list import listed_pixel
 from .parallel import Launcher
 
 wp.set_module_options({"enable_backward": False})
@@ -70,6 +70,62 @@ def sample_offsets(spp: int, seed: int = 0) -> np.ndarray:
     return np.concatenate([points, centre, 1.0 - points[::-1]])
 
 
+@wp.func
+def _add_sample(
+    y: int,
+    x: int,
+    color: wp.array2d(dtype=wp.vec3),
+    visibility: wp.array3d(dtype=wp.float32),
+    first: int,
+    consume: int,
+    color_sum: wp.array2d(dtype=wp.vec3),
+    visibility_sum: wp.array3d(dtype=wp.float32),
+    visibility_count: wp.array3d(dtype=wp.int32),
+):
+    """Add pixel (x, y)'s colour and finite visibility to the sums (``first``: start
+    them; ``consume``: set the visibility read back to NaN, for the next sample)."""
+    rgb = color[y, x]
+    if first == 0:
+        rgb = color_sum[y, x] + rgb
+    color_sum[y, x] = rgb
+    for i in range(visibility.shape[2]):
+        v = visibility[y, x, i]
+        total = float(0.0)
+        count = int(0)
+        if first == 0:
+            total = visibility_sum[y, x, i]
+            count = visibility_count[y, x, i]
+        if not wp.isnan(v):
+            total += v
+            count += 1
+            if consume != 0:
+                visibility[y, x, i] = wp.nan
+        visibility_sum[y, x, i] = total
+        visibility_count[y, x, i] = count
+
+
+@wp.func
+def _average(
+    y: int,
+    x: int,
+    color_sum: wp.array2d(dtype=wp.vec3),
+    visibility_sum: wp.array3d(dtype=wp.float32),
+    visibility_count: wp.array3d(dtype=wp.int32),
+    samples: float,
+    color: wp.array2d(dtype=wp.vec3),
+    visibility: wp.array3d(dtype=wp.float32),
+):
+    """Pixel (x, y)'s box-filtered colour, and its mean visibility where any sample
+    traced it (NaN elsewhere)."""
+    color[y, x] = color_sum[y, x] / samples
+    for i in range(visibility.shape[2]):
+        n = visibility_count[y, x, i]
+        v = wp.nan
+        if n > 0:
+            v = visibility_sum[y, x, i] / float(n)
+        visibility[y, x, i] = v
+
+
 @wp.kernel
 def accumulate_kernel(
     color: wp.array2d(dtype=wp.vec3),
@@ -87,22 +143,7 @@ def accumulate_kernel(
     r, c = wp.tid()
     y = row0 + r * row_step
     for x in range(c * cols, wp.min(c * cols + cols, color.shape[1])):
-        rgb = color[y, x]
-        if first == 0:
-            rgb = color_sum[y, x] + rgb
-        color_sum[y, x] = rgb
-        for i in range(visibility.shape[2]):
-            v = visibility[y, x, i]
-            total = float(0.0)
-            count = int(0)
-            if first == 0:
-                total = visibility_sum[y, x, i]
-                count = visibility_count[y, x, i]
-            if not wp.isnan(v):
-                total += v
-                count += 1
-            visibility_sum[y, x, i] = total
-            visibility_count[y, x, i] = count
+        _add_sample(y, x, color, visibility, first, 0, color_sum, visibility_sum, visibility_count)
 
 
 @wp.kernel
@@ -117,22 +158,54 @@ def average_kernel(
     row_step: int,
     cols: int,
 ):
-    """Per pixel: the box filter's mean colour, and the mean visibility where any
-    sub-frame traced it (NaN elsewhere)."""
+    """Per pixel: the box filter's mean colour and visibility (``_average``)."""
     r, c = wp.tid()
     y = row0 + r * row_step
     for x in range(c * cols, wp.min(c * cols + cols, color.shape[1])):
-        color[y, x] = color_sum[y, x] / samples
-        for i in range(visibility.shape[2]):
-            n = visibility_count[y, x, i]
-            v = wp.nan
-            if n > 0:
-                v = visibility_sum[y, x, i] / float(n)
-            visibility[y, x, i] = v
+        _average(y, x, color_sum, visibility_sum, visibility_count, samples, color, visibility)
+
+
+@wp.kernel
+def listed_accumulate_kernel(
+    pixels: wp.array(dtype=wp.int32),
+    color: wp.array2d(dtype=wp.vec3),
+    visibility: wp.array3d(dtype=wp.float32),
+    first: int,
+    color_sum: wp.array2d(dtype=wp.vec3),
+    visibility_sum: wp.array3d(dtype=wp.float32),
+    visibility_count: wp.array3d(dtype=wp.int32),
+    start: int,
+    step: int,
+):
+    """Per listed pixel: add one sample's colour and finite visibility to the sums,
+    leaving the visibility read NaN again (the next sample writes only where it hits)."""
+    xy = listed_pixel(pixels, start + wp.tid() * step, color.shape[1], color.shape[0])
+    if xy[0] >= 0:
+        _add_sample(xy[1], xy[0], color, visibility, first, 1, color_sum, visibility_sum, visibility_count)
+
+
+@wp.kernel
+def listed_average_kernel(
+    pixels: wp.array(dtype=wp.int32),
+    color_sum: wp.array2d(dtype=wp.vec3),
+    visibility_sum: wp.array3d(dtype=wp.float32),
+    visibility_count: wp.array3d(dtype=wp.int32),
+    samples: float,
+    color: wp.array2d(dtype=wp.vec3),
+    visibility: wp.array3d(dtype=wp.float32),
+    start: int,
+    step: int,
+):
+    """Per listed pixel: the box filter's mean colour and visibility (``_average``)."""
+    xy = listed_pixel(pixels, start + wp.tid() * step, color.shape[1], color.shape[0])
+    if xy[0] >= 0:
+        _average(xy[1], xy[0], color_sum, visibility_sum, visibility_count, samples, color, visibility)
 
 
 class SampleAccumulator:
-    """The running sums of a supersampled frame's sub-frames (buffers reused across frames)."""
+    """The running sums of a supersampled frame's sub-frames (buffers reused across
+    frames): over every pixel, or over the pixels of a list (a supersampled focus
+    window)."""
 
     def __init__(self, launcher: Launcher) -> None:
         """Run on ``launcher``'s device and threads."""
@@ -141,22 +214,36 @@ class SampleAccumulator:
         self._visibility: wp.array | None = None
         self._count: wp.array | None = None
 
-    def _sums(self, buffers: FrameBuffers) -> None:
-        shape = tuple(buffers.visibility.shape)
+    def _sums(self, visibility: wp.array) -> None:
+        shape = tuple(visibility.shape)
         if self._visibility is None or tuple(self._visibility.shape) != shape:
             device = self.launcher.device
             self._color = wp.empty(shape[:2], dtype=wp.vec3, device=device)
             self._visibility = wp.empty(shape, dtype=wp.float32, device=device)
             self._count = wp.empty(shape, dtype=wp.int32, device=device)
 
-    def add(self, buffers: FrameBuffers, first: bool) -> None:
-        """Add the sub-frame in ``buffers`` (``color``, ``visibility``); ``first`` starts the sums."""
-        self._sums(buffers)
-        inputs = [buffers.color, buffers.visibility, int(first), self._color, self._visibility, self._count]
-        self.launcher.launch_pixels(accumulate_kernel, buffers.height, buffers.width, inputs)
+    def add(
+        self, color: wp.array, visibility: wp.array, first: bool, pixels: wp.array | None = None, count: int = 0
+    ) -> None:
+        """Add one sample's ``color`` (H, W) and ``visibility`` (H, W, L); ``first``
+        starts the sums.  With ``pixels``: only the first ``count`` listed pixels, and
+        their visibility is set back to NaN once read (see ``listed_accumulate_kernel``)."""
+        self._sums(visibility)
+        sums = [self._color, self._visibility, self._count]
+        if pixels is None:
+            h, w = color.shape
+            self.launcher.launch_pixels(accumulate_kernel, h, w, [color, visibility, int(first), *sums])
+        else:
+            self.launcher.launch_items(listed_accumulate_kernel, count, [pixels, color, visibility, int(first), *sums])
 
-    def average(self, buffers: FrameBuffers, samples: int) -> None:
-        """Write the mean of the ``samples`` sub-frames added into ``buffers.color`` and
-        ``buffers.visibility``."""
-        inputs = [self._color, self._visibility, self._count, float(samples), buffers.color, buffers.visibility]
-        self.launcher.launch_pixels(average_kernel, buffers.height, buffers.width, inputs)
+    def average(
+        self, samples: int, color: wp.array, visibility: wp.array, pixels: wp.array | None = None, count: int = 0
+    ) -> None:
+        """Write the mean of the ``samples`` samples added into ``color`` and
+        ``visibility`` (with ``pixels``: only at the first ``count`` listed pixels)."""
+        inputs = [self._color, self._visibility, self._count, float(samples), color, visibility]
+        if pixels is None:
+            h, w = color.shape
+            self.launcher.launch_pixels(average_kernel, h, w, inputs)
+        else:
+            self.launcher.launch_items(listed_average_kernel, count, [pixels, *inputs])

@@ -33,6 +33,9 @@ def test_sweep_configurations() -> None:
         Config("full_lowres", 0.25, 0.5),
     ]
     assert [c.label for c in configs][-1] == "full at 0.5x"
+    with_fovea = sweep_configs([0.1, 0.5], [0.5], fovea_spp=8)
+    assert with_fovea[5:7] == [Config("hybrid_fovea", 0.1, spp=8), Config("hybrid_fovea", 0.5, spp=8)]
+    assert with_fovea[5].label == "hybrid 10% x8 spp"
     with pytest.raises(ValueError, match="fractions"):
         sweep_configs([0.0])
     with pytest.raises(ValueError, match="scales"):
@@ -43,12 +46,18 @@ def test_bench_writes_results_table_and_plot(tmp_path: Path) -> None:
     scene = ROOT / "scenes" / "cornell_glass.usda"
     args = ["bench", str(scene), "--gaze", "0.6,0.55", "--out", str(tmp_path), "--size", "48x36", "--repeats", "1"]
     args += ["--fractions", "0.1,0.5", "--lowres", "0.5", "--reference-spp", "4", "--threads", "1"]
+    args += ["--fovea-spp", "4", "--exposure", "0.5"]
     assert main(args) == 0
     with open(tmp_path / "results.csv") as f:
         rows = list(csv.DictReader(f))
     assert list(rows[0])[: len(RESULT_COLUMNS)] == list(RESULT_COLUMNS)
-    assert [r["label"] for r in rows] == [c.label for c in sweep_configs([0.1, 0.5], [0.5])]
+    assert [r["label"] for r in rows] == [c.label for c in sweep_configs([0.1, 0.5], [0.5], fovea_spp=4)]
     by = {r["label"]: r for r in rows}
+    assert by["hybrid 50% x4 spp"]["spp"] == "4" and by["hybrid 50%"]["spp"] == "1"
+    # Four window samples are the reference's first four: the window comes closer to it.
+    assert float(by["hybrid 50% x4 spp"]["flip_inside"]) < float(by["hybrid 50%"]["flip_inside"])
+    assert float(by["hybrid 50% x4 spp"]["fovea_primary_ms"]) > 0.0
+    assert "exposure +0.50 EV" in (tmp_path / "results.md").read_text()
     for r in rows:
         assert float(r["ms"]) > 0.0 and 0.0 <= float(r["flip_foveated"]) <= 1.0
     # tracing more of the screen at the gaze brings the image closer to the traced reference

@@ -23,6 +23,7 @@ from .gbuffer import GBuffer
 if TYPE_CHECKING:
     from ..focus import FocusRegion, FocusWindow
     from ..scene.device import DeviceScene
+    from ..scene.model import Camera
     from ..trace import RayTally
 
 
@@ -57,7 +58,8 @@ class FrameContext:
 
     A supersampled frame runs its passes once per sample (sub-frame): ``camera``
     samples sub-frame ``sample_index``'s point in each pixel, and passes that keep
-    per-frame totals (the ray tally) start them at sample 0 only."""
+    per-frame totals (the ray tally) start them at sample 0 only.  ``view`` is the scene
+    camera ``camera`` was made from, for passes that sample other points in each pixel."""
 
     camera: CameraGPU
     timer: StageTimer
@@ -69,6 +71,7 @@ class FrameContext:
     image: Any = None
     stats: dict[str, Any] = field(default_factory=dict)
     sample_index: int = 0
+    view: Camera | None = None
 
     @property
     def gbuffer(self) -> GBuffer:

@@ -13,6 +13,9 @@
 * ``surface_kernel`` (per pixel): the surface pass both paths share: the material at
   the hit record, textures filtered over the pixel's footprint, into every other
   G-buffer channel.
+* ``listed_primary_kernel`` (one item per entry of a pixel list): the ray-cast hit
+  record and the surface pass of only the listed pixels, for sub-samples of the focus
+  window (``trace.fovea``); a listed pixel that misses gets the background triangle id.
 
 The per-pixel kernels follow the launch layer's ``row0, row_step, cols`` convention
 (``parallel.Launcher.launch_pixels``) and write through ``GBufferRows``.  Background
@@ -27,6 +30,7 @@ import warp as wp
 from ..core.camera import CameraGPU, pixel_ray
 from ..core.constants import luma709
 from ..core.gbuffer import GBufferRows, Optics
+from ..core.pixel_list import listed_pixel
 from ..core.scene_gpu import SceneGPU
 from ..scene.device.surface import is_cut_away, surface_at_grad
 from .clipping import ProjectedPoints, in_guard_band, project, raster_clipped, to_camera
@@ -204,3 +208,21 @@ def surface_kernel(scene: SceneGPU, cam: CameraGPU, gb: GBufferRows, row0: int, 
         tri = gb.triangle_id[i]
         if tri >= 0:
             _write_surface(gb, i, scene, cam, tri, gb.barycentric[i], pixel_ray(cam, x, y))
+
+
+@wp.kernel
+def listed_primary_kernel(
+    scene: SceneGPU, cam: CameraGPU, gb: GBufferRows, pixels: wp.array(dtype=wp.int32), start: int, step: int
+):
+    """Per listed pixel (item ``start + tid * step``): the ray-cast hit record (triangle
+    id -1 on a miss) and, on a hit, the surface channels; other pixels are untouched."""
+    xy = listed_pixel(pixels, start + wp.tid() * step, cam.width, cam.height)
+    if xy[0] < 0:
+        return
+    i = xy[1] * cam.width + xy[0]
+    gb.triangle_id[i] = -1
+    if scene.mesh != wp.uint64(0):
+        _cast(scene, cam, gb, xy[0], xy[1])
+    tri = gb.triangle_id[i]
+    if tri >= 0:
+        _write_surface(gb, i, scene, cam, tri, gb.barycentric[i], pixel_ray(cam, xy[0], xy[1]))

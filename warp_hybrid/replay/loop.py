@@ -147,7 +147,7 @@ class AdaptiveLoop:
         self.camera_path = camera_path
         self.clock = clock
         self.scene: Scene = source.scene_at(self.time_code(self.settings.start))
-        self.camera: Camera = self._camera(self.scene)
+        self.camera: Camera = self.camera_in(self.scene)
         self.renderer = Renderer(self.scene, render_settings, clock=clock)
         rs = self.renderer.settings
         self.controller: BudgetController | None = None
@@ -165,7 +165,8 @@ class AdaptiveLoop:
         self._frame_start: float | None = None
         self.frames = 0
 
-    def _camera(self, scene: Scene) -> Camera:
+    def camera_in(self, scene: Scene) -> Camera:
+        """The loop's camera (``camera_path``, or the first) in ``scene``."""
         return select_camera(scene.cameras, self.camera_path, source=str(self.source.path))
 
     def time_code(self, seconds: float) -> float:
@@ -193,7 +194,7 @@ class AdaptiveLoop:
                 scene = self.source.scene_at(code)
             refit_ms = self.renderer.update_scene(scene)
             self.scene = scene
-            self.camera = self._camera(scene)
+            self.camera = self.camera_in(scene)
             timer.stages_ms["refit"] = refit_ms
         self._pending_ms = dict(timer.stages_ms)
 

@@ -24,33 +24,39 @@ def _is_terminal(stream: TextIO) -> bool:
 
 
 class Progress(AbstractContextManager["Progress"]):
-    """A progress bar over ``total`` frames (``None``: unknown, no bar length).
+    """A progress bar over ``total`` items (``None``: unknown, no bar length).
 
     ``enabled``: ``None`` shows it only when standard output is a terminal; ``True`` or
-    ``False`` force it.  A context manager (``__exit__`` calls ``close``).
+    ``False`` force it.  ``unit`` names the items; ``budgeted``: show the share within
+    budget (frames of a replay; not for the items of other work).  A context manager
+    (``__exit__`` calls ``close``).
     """
 
-    def __init__(self, total: int | None, enabled: bool | None = None) -> None:
+    def __init__(
+        self, total: int | None, enabled: bool | None = None, unit: str = "frame", budgeted: bool = True
+    ) -> None:
         stream = sys.stdout
+        self.budgeted = budgeted
         self.enabled = _is_terminal(stream) if enabled is None else bool(enabled)
         self.total = total
         self.frames = 0
         self.frames_within_budget = 0
         self._bar: tqdm | None = None
         if self.enabled:
-            self._bar = tqdm(total=total, unit="frame", file=stream, dynamic_ncols=True, leave=True)
+            self._bar = tqdm(total=total, unit=unit, file=stream, dynamic_ncols=True, leave=True)
 
     @property
     def within_budget_pct(self) -> float | None:
         """Percent of the frames so far that were within budget (``None`` before any)."""
         return None if self.frames == 0 else 100.0 * self.frames_within_budget / self.frames
 
-    def update(self, within_budget: bool) -> None:
-        """Count one finished frame, and whether it was within budget."""
+    def update(self, within_budget: bool = True) -> None:
+        """Count one finished item, and whether it was within budget."""
         self.frames += 1
         self.frames_within_budget += bool(within_budget)
         if self._bar is not None:
-            self._bar.set_postfix_str(f"within budget {self.within_budget_pct:.0f}%", refresh=False)
+            if self.budgeted:
+                self._bar.set_postfix_str(f"within budget {self.within_budget_pct:.0f}%", refresh=False)
             self._bar.update(1)
 
     def close(self) -> None:

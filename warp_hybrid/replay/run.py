@@ -27,6 +27,7 @@ from gaze.errors import GazeError
 from gaze.source import GazeSample, GazeSource, centre_sample
 
 from ..output import write_json, write_png
+from .frame_error import FrameErrors, error_summary, write_errors
 from .loop import FRAME_STAGES, AdaptiveLoop, LoopFrame
 from .overlay import draw_overlay
 from .progress import Progress
@@ -68,14 +69,17 @@ class SteadyGaze:
 @dataclass
 class ReplayOutputs:
     """Where a replay writes: the video (None: none), the stats CSV (None: none), the
-    summary JSON (None: none), a PNG per frame (None: none), and whether the video shows
-    the window outline and the gaze point."""
+    summary JSON (None: none), a PNG per frame (None: none), whether the video shows
+    the window outline and the gaze point, and the per-frame error CSV against
+    references of ``error_spp`` samples per pixel (None: none; ``frame_error``)."""
 
     video: Path | None = None
     stats: Path | None = None
     summary_json: Path | None = None
     frames_dir: Path | None = None
     overlay: bool = False
+    errors: Path | None = None
+    error_spp: int = 16
 
 
 @dataclass
@@ -126,6 +130,14 @@ def _overlaid(frame: LoopFrame) -> Any:
     return draw_overlay(image, (cx, cy), layout_shape, half_w, half_h, gaze, traced)
 
 
+def _measure_errors(errors: FrameErrors, path: Path, progress: bool | None) -> dict[str, Any]:
+    """Measure the kept frames against their references, write ``path``, return the medians."""
+    with Progress(len(errors.kept), enabled=progress, unit="reference", budgeted=False) as bar:
+        rows = errors.measure(on_row=bar.update)
+    write_errors(path, rows)
+    return {"errors": {"reference_spp": errors.spp, "frames": len(rows), **error_summary(rows)}}
+
+
 def replay(
     loop: AdaptiveLoop,
     gaze: GazeSource,
@@ -139,7 +151,9 @@ def replay(
     ``outputs``; ``warm_up`` untimed frames first (kernels compiled, the controller
     primed) at the first frame's time; ``on_frame`` sees every finished frame.  Returns
     the summary; an interruption ends the replay early with whole outputs
-    (``interrupted`` set)."""
+    (``interrupted`` set).  With ``outputs.errors``, every frame's error against its
+    reference is measured after the timed frames (not after an interruption) and its
+    medians join the summary."""
     settings = loop.settings
     steady = SteadyGaze(gaze)
     rs = loop.renderer.settings
@@ -152,6 +166,7 @@ def replay(
     interrupted = False
     video = VideoWriter(outputs.video, rs.width, rs.height, settings.fps) if outputs.video else None
     stats = StatsWriter(outputs.stats, FRAME_STAGES) if outputs.stats else None
+    errors = FrameErrors(loop, outputs.error_spp) if outputs.errors else None
     try:
         with _sigterm_interrupts(), Progress(frames, enabled=progress) as bar:
             for i in range(frames):
@@ -165,6 +180,8 @@ def replay(
                     write_png(outputs.frames_dir / f"frame_{i:05d}.png", frame.frame.image)
                 slim.append({"frame_ms": frame.frame_ms, "traced_fraction": frame.traced_fraction})
                 bar.update(frame.within_budget)
+                if errors is not None:
+                    errors.keep(frame)
                 if on_frame is not None:
                     on_frame(frame)
     except KeyboardInterrupt:
@@ -180,6 +197,10 @@ def replay(
         encode_ms=video.encode_ms if video is not None else None,
         encoded_frames=video.frames if video is not None else None,
     )
+    if errors is not None:
+        with errors:
+            if not interrupted:
+                summary.update(_measure_errors(errors, outputs.errors, progress))
     if outputs.summary_json is not None:
         write_json(outputs.summary_json, {**summary, "interrupted": interrupted, "gaze_failure": steady.failure})
     return ReplayResult(len(slim), interrupted, summary, steady.failure)

@@ -101,4 +101,12 @@ def format_summary(summary: Mapping[str, Any]) -> str:
     ]
     if summary.get("encode_ms_mean") is not None:
         lines.append(f"video encoding: {number('encode_ms_mean', 2, ' ms')} per frame (mean, off the render thread)")
+    errors = summary.get("errors")
+    if errors:
+        lines.append(
+            f"error against {errors['reference_spp']}-spp references (median over {errors['frames']} frames): "
+            f"foveated FLIP {errors['median_flip_foveated']:.4f}, inside the window "
+            f"{errors['median_flip_inside']:.4f}, outside {errors['median_flip_outside']:.4f}, "
+            f"PSNR {errors['median_psnr']:.2f} dB"
+        )
     return "\n".join(lines)

@@ -105,7 +105,9 @@ class SceneSweep:
         if config.method == "full_lowres":
             return self._measure_lowres(config, linear_ref, srgb_ref)
         mode = {"raster": "raster", "full": "full"}.get(config.method, "hybrid")
-        settings = self._settings(mode=mode, window_fraction=config.fraction or self.base.window_fraction)
+        settings = self._settings(
+            mode=mode, window_fraction=config.fraction or self.base.window_fraction, fovea_spp=config.spp
+        )
         settings.exposure_ev = self.exposure_ev
         gaze = (0.5, 0.5) if config.method == "hybrid_centre" else self.gaze
         with Renderer(self.device_scene, settings) as r:

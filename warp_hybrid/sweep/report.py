@@ -1,7 +1,8 @@
 """A sweep's results: ``results.csv``, ``results.md`` and one plot per scene.
 
 ``results.csv`` has one row per configuration, these columns first: ``scene, method,
-label, fraction, scale, ms, flip_mean, flip_foveated, flip_inside, flip_outside, psnr``,
+label, fraction, scale, ms, flip_mean, flip_foveated, flip_inside, flip_outside, psnr,
+spp`` (the window's samples per pixel: 1 but for ``hybrid_fovea``),
 then ``<stage>_ms`` for every stage any configuration reported (0 where it did not).
 Each plot (``<scene>.png``, matplotlib) shows time (ms) against foveated FLIP, a line
 per method, with the Pareto front (the configurations no other is both faster and more
@@ -32,6 +33,7 @@ RESULT_COLUMNS = (
     "flip_inside",
     "flip_outside",
     "psnr",
+    "spp",
 )
 
 
@@ -62,6 +64,7 @@ def _row(scene: str, m: Measurement, stages: Sequence[str]) -> dict[str, object]
         "flip_inside": f"{e.flip_inside:.6f}",
         "flip_outside": f"{e.flip_outside:.6f}",
         "psnr": f"{e.psnr:.3f}",
+        "spp": m.config.spp,
     }
     row.update({f"{s}_ms": f"{m.stages_ms.get(s, 0.0):.3f}" for s in stages})
     return row

@@ -38,6 +38,7 @@ import warp as wp
 from ..core.camera import pixel_ray_direction
 from ..core.constants import INV_PI, SMOOTH_ROUGHNESS
 from ..core.gbuffer import GBufferArrays
+from ..core.pixel_list import listed_pixel
 from ..core.scene_gpu import FLAG_TRANSMISSIVE, AmbientGPU, SceneGPU
 from ..lighting.ambient import ambient_diffuse, ambient_specular, env_brdf
 from ..lighting.lights import light_sample
@@ -46,7 +47,7 @@ from ..scene.device.environment import environment_radiance
 from ..scene.device.surface import SurfaceHit, is_cut_away, surface_at
 from .offset import offset_ray_origin
 from .optics import make_transmission_func, mirror_direction, transmission_tint
-from .rays import MAX_LAYERS, MIN_THROUGHPUT, RayHit, TraceFrame, TraceParams, listed_pixel, max3, step_past
+from .rays import MAX_LAYERS, MIN_THROUGHPUT, RayHit, TraceFrame, TraceParams, max3, step_past
 from .shadows import make_light_func
 from .variant import TraceVariant
 

@@ -85,13 +85,3 @@ def step_past(scene: SceneGPU, params: TraceParams, face: int, u: float, v: floa
         n = -n
     return offset_ray_origin(triangle_position(scene, face, u, v), n, params.scale)
 
-
-@wp.func
-def listed_pixel(pixels: wp.array(dtype=wp.int32), item: int, width: int, height: int) -> wp.vec2i:
-    """(column, row) of entry ``item`` of a pixel list (flat indices ``row * width +
-    column``); (-1, -1) for an entry outside the image, which the kernels skip."""
-    pixel = pixels[item]
-    if pixel < 0 or pixel >= width * height:
-        return wp.vec2i(-1, -1)
-    y = pixel // width
-    return wp.vec2i(pixel - y * width, y)

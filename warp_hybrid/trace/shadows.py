@@ -29,6 +29,7 @@ import functools
 import warp as wp
 
 from ..core.constants import luma709
+from ..core.pixel_list import listed_pixel
 from ..core.scene_gpu import FLAG_CUTOUT, FLAG_TRANSMISSIVE, SceneGPU
 from ..lighting.brdf import fresnel_dielectric
 from ..lighting.light_sampling import center_ray_length, light_has_extent, sample_light_ray
@@ -37,7 +38,7 @@ from ..scene.device.surface import is_cut_away, surface_at
 from .occluders import OccluderGPU
 from .offset import offset_ray_origin
 from .optics import transmission_tint
-from .rays import MAX_LAYERS, TraceFrame, TraceParams, is_emissive, listed_pixel, max3, step_past
+from .rays import MAX_LAYERS, TraceFrame, TraceParams, is_emissive, max3, step_past
 
 
 @wp.struct

@@ -1,0 +1,186 @@
+"""This project's frame stages beside Mitsuba 3 on the same views, as ratios from one run.
+
+Mitsuba 3 (PyPI ``mitsuba``, the ``llvm_ad_rgb`` variant on the CPU, Dr.Jit on as many
+threads as the renderer) is a benchmark-only dependency (``pip install -e .[bench]``):
+nothing else imports it.  Per scene, on the same triangles, camera and lights, at the
+same resolution (median of ``--repeats`` after a warm-up, everything evaluated and
+synchronised inside the timing):
+
+* **primary**: one camera ray per pixel centre through Mitsuba's BVH with the full
+  surface interaction (position, shading frame, UVs, distance): against this project's
+  raster-mode G-buffer stages (``clear + raster + resolve + surface``) and the whole
+  ``--mode raster`` frame, post included.
+* **shadow**: one shadow ray per pixel per light from the primary hits (toward a
+  light's centre, or along a distant light): against ``trace_shadow`` in ``--mode full``.
+* **whitted**: primary, shadows, and one mirror bounce (and its shadows) where the hit's
+  material reflects (metallic >= 0.5, or glass): against the whole ``--mode full`` frame.
+
+Rays are built on the host once (not timed).  Each scene runs in its own subprocess.
+
+    .venv/bin/python scripts/bench_peer.py [--scenes staircase classroom] [--size 640x480] [--repeats 5]
+        [--json out/bench_peer.json]
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from bench_common import median_ms, run_per_scene
+
+PRIMARY_STAGES = ("clear", "raster", "resolve", "surface")
+
+
+def _camera_rays(camera, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
+    """(origins, unit directions), (H*W, 3) float32, through each pixel centre (row 0 at
+    the top), the project's pinhole model (``Camera.tan_half_fov_*``)."""
+    xs = (np.arange(width) + 0.5) / width * 2.0 - 1.0
+    ys = 1.0 - (np.arange(height) + 0.5) / height * 2.0
+    px, py = np.meshgrid(xs * camera.tan_half_fov_x, ys * camera.tan_half_fov_y(width, height))
+    local = np.stack([px, py, -np.ones_like(px)], axis=-1).reshape(-1, 3)
+    m = np.asarray(camera.cam_to_world, dtype=np.float64)
+    d = local @ m[:3, :3].T
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    o = np.broadcast_to(m[:3, 3], d.shape)
+    return o.astype(np.float32), d.astype(np.float32)
+
+
+def _mitsuba(scene, camera, width: int, height: int, repeats: int, threads: int) -> dict[str, float]:
+    """Mitsuba's primary, shadow and Whitted-style times (ms, medians)."""
+    import drjit as dr
+    import mitsuba as mi
+
+    mi.set_variant("llvm_ad_rgb")
+    dr.set_thread_count(threads)
+    points = np.ascontiguousarray(scene.points, dtype=np.float32)
+    faces = np.ascontiguousarray(scene.indices, dtype=np.uint32)
+    mesh = mi.Mesh("scene", vertex_count=len(points), face_count=len(faces), has_vertex_normals=False)
+    params = mi.traverse(mesh)
+    params["vertex_positions"] = mi.Float(points.ravel())
+    params["faces"] = mi.UInt32(faces.ravel())
+    params.update()
+    mscene = mi.load_dict({"type": "scene", "mesh": mesh})
+    origins, directions = _camera_rays(camera, width, height)
+    rays = mi.Ray3f(
+        mi.Point3f(*(mi.Float(origins[:, i]) for i in range(3))),
+        mi.Vector3f(*(mi.Float(directions[:, i]) for i in range(3))),
+    )
+    reflective = np.array(
+        [m.metallic >= 0.5 or (m.opacity < 1.0 and not m.thin_walled) for m in scene.materials], dtype=bool
+    )
+    tri_reflective = mi.Bool(reflective[scene.triangle_material] if len(reflective) else np.zeros(len(faces), bool))
+    lights = [(int(light.kind), np.asarray(light.position), np.asarray(light.direction)) for light in scene.lights]
+
+    def shadows(si) -> list:
+        tests = []
+        for kind, position, direction in lights:
+            if kind == 0:  # distant: along the light's direction, toward it
+                d = mi.Vector3f(*(float(-v) for v in direction / np.linalg.norm(direction)))
+                ray = si.spawn_ray(d)
+            else:
+                ray = si.spawn_ray_to(mi.Point3f(*(float(v) for v in position)))
+            tests.append(mscene.ray_test(ray, active=si.is_valid()))
+        return tests
+
+    def primary() -> dict[str, float]:
+        start = time.perf_counter()
+        si = mscene.ray_intersect(rays)
+        dr.eval(si.p, si.sh_frame.n, si.uv, si.t, si.prim_index)
+        dr.sync_thread()
+        return {"primary": (time.perf_counter() - start) * 1000.0}
+
+    si_fixed = mscene.ray_intersect(rays)
+    dr.eval(si_fixed)
+    hit_share = float(dr.count(si_fixed.is_valid())[0]) / (width * height)
+
+    def shadow() -> dict[str, float]:
+        start = time.perf_counter()
+        dr.eval(*shadows(si_fixed))
+        dr.sync_thread()
+        return {"shadow": (time.perf_counter() - start) * 1000.0}
+
+    def whitted() -> dict[str, float]:
+        start = time.perf_counter()
+        si = mscene.ray_intersect(rays)
+        tests = shadows(si)
+        mirror = si.is_valid() & dr.gather(mi.Bool, tri_reflective, si.prim_index, si.is_valid())
+        bounce = mscene.ray_intersect(si.spawn_ray(si.to_world(mi.reflect(si.wi))), active=mirror)
+        tests += shadows(bounce)
+        dr.eval(si.p, si.sh_frame.n, si.uv, bounce.p, bounce.sh_frame.n, *tests)
+        dr.sync_thread()
+        return {"whitted": (time.perf_counter() - start) * 1000.0}
+
+    out = {"hit_share": hit_share}
+    for fn in (primary, shadow, whitted):
+        out.update(median_ms(fn, repeats, warmup=2))
+    return out
+
+
+def measure_scene(path: str, width: int, height: int, repeats: int) -> dict:
+    """This project's raster and full frames and Mitsuba's three passes on one scene."""
+    from warp_hybrid.renderer import Renderer, RenderSettings
+    from warp_hybrid.runtime import init_warp
+    from warp_hybrid.scene.open import open_scene_source
+
+    init_warp()
+    scene = open_scene_source(path).scene_at(None)
+    camera = scene.cameras[0]
+    ours: dict[str, dict[str, float]] = {}
+    threads, hit_share = 0, 0.0
+    for mode in ("raster", "full"):
+        with Renderer(scene, RenderSettings(width=width, height=height, mode=mode)) as r:
+            threads = r.launcher.threads
+
+            def frame() -> dict[str, float]:
+                f = r.render(camera)
+                return {**f.stats["stages_ms"], "frame": f.stats["frame_ms"]}
+
+            ours[mode] = median_ms(frame, repeats)
+            hit_share = float(r.buffers.gbuffer.hit_mask().mean())
+    peer = _mitsuba(scene, camera, width, height, repeats, threads)
+    primary = sum(ours["raster"].get(s, 0.0) for s in PRIMARY_STAGES)
+    return {
+        "triangles": scene.triangle_count,
+        "lights": len(scene.lights),
+        "threads": threads,
+        "ours": ours,
+        "mitsuba": peer,
+        "ratios": {
+            "primary": primary / peer["primary"],
+            "raster_frame": ours["raster"]["frame"] / peer["primary"],
+            "shadow": ours["full"].get("trace_shadow", 0.0) / peer["shadow"] if peer["shadow"] else 0.0,
+            "full_frame": ours["full"]["frame"] / peer["whitted"],
+        },
+        "primary_ms": primary,
+        "hit_share": hit_share,
+    }
+
+
+def main() -> None:
+    """Run the benchmark and print the table."""
+    args, width, height, results = run_per_scene(__doc__.splitlines()[0], __file__, measure_scene)
+    print(
+        "| scene | triangles | lights | G-buffer ms / Mitsuba primary ms | raster frame / primary | "
+        "trace_shadow ms / Mitsuba shadow ms | full frame ms / Mitsuba Whitted ms |"
+    )
+    print("|---|---|---|---|---|---|---|")
+    for name, r in results.items():
+        o, m, q = r["ours"], r["mitsuba"], r["ratios"]
+        print(
+            f"| {name} | {r['triangles']} | {r['lights']} | {r['primary_ms']:.1f} / {m['primary']:.1f} = "
+            f"{q['primary']:.2f}x | {o['raster']['frame']:.1f} ms = {q['raster_frame']:.2f}x | "
+            f"{o['full'].get('trace_shadow', 0.0):.1f} / {m['shadow']:.1f} = {q['shadow']:.2f}x | "
+            f"{o['full']['frame']:.1f} / {m['whitted']:.1f} = {q['full_frame']:.2f}x |"
+        )
+    threads = next(iter(results.values()))["threads"] if results else 0
+    print(f"\n{width}x{height}, {threads} threads on both, median of {args.repeats} after a warm-up")
+    shares = ", ".join(f"{n} {r['hit_share']:.3f} / {r['mitsuba']['hit_share']:.3f}" for n, r in results.items())
+    print(f"share of pixels that see a surface, ours / Mitsuba's (the same view): {shares}")
+    if args.json:
+        from warp_hybrid.output import write_json
+
+        write_json(args.json, {"size": [width, height], "scenes": results})
+
+
+if __name__ == "__main__":
+    main()

@@ -1,4 +1,4 @@
-"""``python -m gaze calibrate|record|convert ...``."""
+"""``python -m gaze calibrate|record|convert|info ...``."""
 
 import sys
 

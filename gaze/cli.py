@@ -1,4 +1,4 @@
-"""The ``gaze`` command line: ``calibrate``, ``record`` and ``convert``.
+"""The ``gaze`` command line: ``calibrate``, ``record``, ``convert`` and ``info``.
 
 ``add_gaze_parser`` hangs the ``gaze`` sub-command under a parent program
 (``warp-hybrid gaze ...``); ``build_parser`` makes the stand-alone ``python -m gaze``
@@ -10,14 +10,16 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import json
 import sys
 from collections.abc import Callable, Sequence
 
 from gaze.errors import GazeError
 from gaze.screen import parse_screen_size
 from gaze.trace.data import DEFAULT_MIN_CONFIDENCE
-from gaze.trace.detect import FORMATS, read_trace
+from gaze.trace.detect import FORMATS, read_recordings
 from gaze.trace.simple_csv import write_trace
+from gaze.trace.summary import count_phrase, file_summary, format_summary
 
 
 def screen_size_arg(text: str) -> tuple[int, int]:
@@ -40,9 +42,9 @@ def confidence_arg(text: str) -> float:
 
 
 def add_gaze_commands(parser: argparse.ArgumentParser) -> None:
-    """Add the ``calibrate``, ``record`` and ``convert`` sub-commands to ``parser``
+    """Add the ``calibrate``, ``record``, ``convert`` and ``info`` sub-commands to ``parser``
     (their name lands in ``args.gaze_command``)."""
-    sub = parser.add_subparsers(dest="gaze_command", required=True, metavar="{calibrate,record,convert}")
+    sub = parser.add_subparsers(dest="gaze_command", required=True, metavar="{calibrate,record,convert,info}")
 
     p = sub.add_parser("calibrate", help="9-point webcam calibration: fit features -> screen, save JSON")
     p.add_argument("--source", required=True, help="webcam:INDEX or webcam:VIDEO (a video file)")
@@ -61,20 +63,30 @@ def add_gaze_commands(parser: argparse.ArgumentParser) -> None:
         "--screen", type=screen_size_arg, default=None, metavar="WxH", help="screen size in pixels, e.g. 1920x1080"
     )
 
-    p = sub.add_parser("convert", help="convert a gaze trace (simple CSV, Pupil Labs, Tobii) to the simple CSV")
+    p = sub.add_parser("convert", help="convert a recorded gaze trace (any supported export) to the simple CSV")
     p.add_argument("input", help="trace file; its format is detected from the header unless --format is given")
     p.add_argument(
         "output",
         help="simple CSV to write: t,x,y,confidence, t from the first sample, x,y normalised with the origin top-left",
     )
+    _add_reading_options(p)
+
+    p = sub.add_parser("info", help="what a trace file holds: format, recordings, rate, valid share, skipped rows")
+    p.add_argument("input", help="trace file; its format is detected from the header unless --format is given")
+    p.add_argument("--json", action="store_true", help="print the report as JSON")
+    _add_reading_options(p)
+
+
+def _add_reading_options(p: argparse.ArgumentParser) -> None:
+    """The options of every command that reads a trace file: format, screen, confidence, recording."""
     p.add_argument("--format", choices=FORMATS, default=None, help="input format (default: detect)")
     p.add_argument(
         "--screen",
         type=screen_size_arg,
         default=None,
         metavar="WxH",
-        help="pixel size of pixel coordinates in the input (simple CSV in pixels, Tobii "
-        "without 'Recording resolution' columns)",
+        help="pixel size of pixel coordinates in the input (it overrides a size the file holds; needed where "
+        "the file holds none)",
     )
     p.add_argument(
         "--min-confidence",
@@ -82,14 +94,20 @@ def add_gaze_commands(parser: argparse.ArgumentParser) -> None:
         default=DEFAULT_MIN_CONFIDENCE,
         help=f"samples below this confidence are invalid (default {DEFAULT_MIN_CONFIDENCE})",
     )
+    p.add_argument(
+        "--recording",
+        default=None,
+        metavar="ID",
+        help="one recording of a file that joins several (a 'recording id' / 'Recording name' column)",
+    )
 
 
 def add_gaze_parser(subparsers: argparse._SubParsersAction) -> None:
-    """Add the ``gaze`` sub-command (with calibrate/record/convert) to a parent program's sub-parsers."""
+    """Add the ``gaze`` sub-command (with calibrate/record/convert/info) to a parent program's sub-parsers."""
     parser = subparsers.add_parser(
         "gaze",
-        help="gaze sources: webcam calibrate/record, trace convert",
-        description="Gaze sources: webcam calibration and recording, trace conversion.",
+        help="gaze sources: webcam calibrate/record, trace convert/info",
+        description="Gaze sources: webcam calibration and recording, trace conversion and inspection.",
     )
     add_gaze_commands(parser)
 
@@ -97,20 +115,31 @@ def add_gaze_parser(subparsers: argparse._SubParsersAction) -> None:
 def build_parser() -> argparse.ArgumentParser:
     """The stand-alone ``gaze`` program (``python -m gaze``)."""
     parser = argparse.ArgumentParser(
-        prog="gaze", description="Gaze sources: webcam calibration and recording, trace conversion."
+        prog="gaze", description="Gaze sources: webcam calibration and recording, trace conversion and inspection."
     )
     add_gaze_commands(parser)
     return parser
 
 
 def _cmd_convert(args: argparse.Namespace) -> int:
-    """``gaze convert IN OUT``: read any supported trace, write the simple CSV atomically."""
-    data = read_trace(args.input, args.format, args.screen, args.min_confidence)
+    """``gaze convert IN OUT``: read one recording of any supported trace, write the simple CSV atomically."""
+    trace_file = read_recordings(args.input, args.format, args.screen, args.min_confidence)
+    data = trace_file.trace(args.recording)
     write_trace(args.output, data)
+    recording = "" if data.recording is None else f" recording {data.recording}"
+    skipped = f"; skipped rows: {count_phrase(data.skipped)}" if data.skipped else ""
     print(
         f"{args.output}: {len(data)} samples ({int(data.valid.sum())} valid) over {data.duration:.3f} s "
-        f"from {data.format} {args.input}"
+        f"from {data.format}{recording} {args.input}{skipped}"
     )
+    return 0
+
+
+def _cmd_info(args: argparse.Namespace) -> int:
+    """``gaze info TRACE``: print what the file holds (text, or JSON with ``--json``)."""
+    trace_file = read_recordings(args.input, args.format, args.screen, args.min_confidence)
+    summary = file_summary(trace_file, args.recording)
+    print(json.dumps(summary, indent=2) if args.json else format_summary(summary))
     return 0
 
 
@@ -137,7 +166,7 @@ def _cmd_record(args: argparse.Namespace) -> int:
 
 def run_gaze(args: argparse.Namespace) -> int:
     """Run the parsed ``gaze`` sub-command; returns the exit status (``GazeError`` propagates)."""
-    commands = {"calibrate": _cmd_calibrate, "record": _cmd_record, "convert": _cmd_convert}
+    commands = {"calibrate": _cmd_calibrate, "record": _cmd_record, "convert": _cmd_convert, "info": _cmd_info}
     return commands[args.gaze_command](args)
 
 

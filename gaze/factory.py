@@ -4,10 +4,11 @@ Grammar (a kind, then ``:`` and its argument, then optional ``?key=value&key=val
 
     cursor
     fixed:X,Y                         normalised, origin top-left, each in [0, 1]
-    trace:PATH[?format=F][&screen=WxH][&min_confidence=C]
-                                      F one of simple, pupil, pupil_surface, tobii
-                                      (default: detected from the header); WxH the
-                                      pixel size of pixel-unit files
+    trace:PATH[?format=F][&screen=WxH][&min_confidence=C][&recording=ID]
+                                      F one of ``gaze.trace.FORMATS`` (default:
+                                      detected from the header); WxH the pixel size
+                                      of pixel-unit files; ID one recording of a file
+                                      that joins several
     webcam:INDEX[?calibration=FILE]   a camera index (digits)
     webcam:VIDEO[?calibration=FILE]   a video file played as the camera
 
@@ -29,8 +30,13 @@ from gaze.trace.playback import TraceSource
 
 KINDS = ("cursor", "fixed", "trace", "webcam")
 #: Query keys each kind accepts.
-QUERY_KEYS = {"cursor": (), "fixed": (), "trace": ("format", "screen", "min_confidence"), "webcam": ("calibration",)}
-SPEC_HELP = "cursor, fixed:X,Y, trace:PATH[?format=F&screen=WxH] or webcam:INDEX|VIDEO[?calibration=FILE]"
+QUERY_KEYS = {
+    "cursor": (),
+    "fixed": (),
+    "trace": ("format", "screen", "min_confidence", "recording"),
+    "webcam": ("calibration",),
+}
+SPEC_HELP = "cursor, fixed:X,Y, trace:PATH[?format=F&screen=WxH&recording=ID] or webcam:INDEX|VIDEO[?calibration=FILE]"
 
 
 def _spec_error(spec: str, problem: str) -> GazeError:
@@ -80,7 +86,7 @@ def _fixed(spec: str, argument: str) -> FixedSource:
 
 
 def _trace(spec: str, path: str, query: dict[str, str]) -> TraceSource:
-    """``trace:PATH[?format=F&screen=WxH&min_confidence=C]``."""
+    """``trace:PATH[?format=F&screen=WxH&min_confidence=C&recording=ID]``."""
     fmt = check_format(query["format"], f"gaze source {spec!r}") if "format" in query else None
     screen_px = parse_screen_size(query["screen"], f"gaze source {spec!r}") if "screen" in query else None
     min_confidence = DEFAULT_MIN_CONFIDENCE
@@ -92,7 +98,7 @@ def _trace(spec: str, path: str, query: dict[str, str]) -> TraceSource:
         if not 0.0 <= min_confidence <= 1.0:
             raise _spec_error(spec, f"min_confidence must lie in [0, 1], got {min_confidence:g}")
     screen = ScreenGeometry().with_pixels(*screen_px) if screen_px is not None else None
-    return TraceSource.from_file(path, fmt, screen, screen_px, min_confidence)
+    return TraceSource.from_file(path, fmt, screen, screen_px, min_confidence, recording=query.get("recording"))
 
 
 def _webcam(spec: str, argument: str, query: dict[str, str]) -> GazeSource:

@@ -60,13 +60,15 @@ class TraceSource(GazeSource):
         screen_px: tuple[int, int] | None = None,
         min_confidence: float = DEFAULT_MIN_CONFIDENCE,
         threshold_deg_s: float = DEFAULT_THRESHOLD_DEG_S,
+        recording: str | None = None,
     ) -> TraceSource:
         """Read a trace file (any supported format) and wrap it.
 
         ``screen_px`` gives the pixel size of pixel coordinates in the file; ``screen``
-        (default: the standard monitor at ``screen_px``) is the geometry for I-VT.
+        (default: the standard monitor at ``screen_px``) is the geometry for I-VT;
+        ``recording`` picks one recording of a file that joins several.
         """
-        data = read_trace(path, fmt, screen_px, min_confidence)
+        data = read_trace(path, fmt, screen_px, min_confidence, recording)
         if screen is None and screen_px is not None:
             screen = ScreenGeometry().with_pixels(*screen_px)
         return cls(data, screen, threshold_deg_s)

@@ -1,9 +1,11 @@
 """The simple CSV trace format: ``t,x,y[,confidence]``, one sample per row.
 
-``t`` is in seconds; ``x, y`` are normalised with the origin at the top-left, or pixels
-of a screen whose size the caller gives.  Empty ``x``/``y`` cells mark invalid samples
-(blinks, track loss); ``confidence`` defaults to 1 and, as for every format, a sample
-below the reader's minimum confidence (default 0.6) is invalid.  The writer always
+``t`` is in seconds (or in the unit its header names: ``t [ms]``); ``x, y`` are
+normalised with the origin at the top-left, or pixels of a screen whose size the caller
+gives (whenever the caller gives one, and required when the header says ``x [px]``).
+Empty ``x``/``y`` cells mark invalid samples (blinks, track loss); ``confidence``
+defaults to 1 and, as for every format, a sample below the reader's minimum confidence
+(default 0.6) is invalid.  The writer always
 emits the header ``t,x,y,confidence`` and writes invalid rows as ``t,,,0``.
 """
 
@@ -15,8 +17,11 @@ import numpy as np
 
 from gaze.atomic import write_atomic
 from gaze.errors import GazeError
-from gaze.trace.data import DEFAULT_MIN_CONFIDENCE, TraceData, make_trace_data
-from gaze.trace.table import Table, read_table
+from gaze.trace.columns import split_unit, time_unit
+from gaze.trace.data import DEFAULT_MIN_CONFIDENCE, TraceData
+from gaze.trace.reader import TraceFormat, read_with
+from gaze.trace.samples import Samples, pixel_note, pixel_size
+from gaze.trace.text import TraceText
 
 FORMAT = "simple"
 HEADER = ["t", "x", "y"]
@@ -25,8 +30,8 @@ PIXEL_SUSPICION = 2.0
 
 
 def is_simple_header(header: list[str]) -> bool:
-    """True for ``t,x,y`` or ``t,x,y,confidence`` (case-insensitive)."""
-    names = [h.lower() for h in header]
+    """True for ``t,x,y`` or ``t,x,y,confidence`` (case-insensitive, each with an optional unit suffix)."""
+    names = [split_unit(h)[0] for h in header]
     return names in (HEADER, HEADER + ["confidence"])
 
 
@@ -36,25 +41,28 @@ def read_simple(
     min_confidence: float = DEFAULT_MIN_CONFIDENCE,
 ) -> TraceData:
     """Read a simple CSV trace; with ``screen_px=(W, H)`` the x, y columns are pixels."""
-    table = read_table(path, ",")
-    return simple_from_table(table, screen_px, min_confidence)
+    return read_with(READER, path, screen_px, min_confidence).trace()
 
 
-def simple_from_table(
-    table: Table, screen_px: tuple[int, int] | None, min_confidence: float = DEFAULT_MIN_CONFIDENCE
-) -> TraceData:
-    """Build the trace from an already parsed simple CSV table."""
+def simple_samples(text: TraceText, screen_px: tuple[int, int] | None) -> Samples:
+    """The samples of a simple CSV.  ``t`` may carry a time unit (``t [ms]``, default seconds);
+    ``x``/``y`` are pixels when their header says ``[px]`` or the caller gives a screen size."""
+    table = text.table
     if not is_simple_header(table.header):
         raise GazeError(table.path, f"unknown columns {table.header}; the simple format is t,x,y[,confidence]")
     width = len(table.header)
     for row, line in zip(table.rows, table.lines):
         if any(cell.strip() for cell in row[width:]):
             raise GazeError(table.path, f"line {int(line)}: {len(row)} cells but the header names {width} columns")
-    t, x, y = (table.floats(i) for i in range(3))
+    t = table.times(0, time_unit(table.path, table.header[0], default="s"))
+    x, y = table.floats(1), table.floats(2)
     confidence = table.floats(3) if width == 4 else np.ones_like(t)
     confidence = np.where(np.isnan(confidence), 1.0, confidence)
-    if screen_px is not None:
-        x, y = x / screen_px[0], y / screen_px[1]
+    notes: dict[str, str] = {}
+    if screen_px is not None or any((split_unit(h)[1] or "").lower() == "px" for h in table.header[1:3]):
+        size, source = pixel_size(table.path, screen_px, None, "the screen")
+        x, y = x / size[0], y / size[1]
+        notes = pixel_note(size, source, "the screen")
     else:
         biggest = float(np.nanmax(np.abs(np.concatenate([x, y])), initial=0.0))
         if biggest > PIXEL_SUSPICION:
@@ -62,8 +70,16 @@ def simple_from_table(
                 table.path,
                 f"coordinates up to {biggest:g} look like pixels; give the screen size (screen=WxH / --screen WxH)",
             )
-    usable = np.ones(t.shape, bool)
-    return make_trace_data(table.path, FORMAT, t, x, y, confidence, usable, table.lines, min_confidence)
+    return Samples(t, x, y, table.lines, confidence, notes=notes)
+
+
+READER = TraceFormat(
+    FORMAT,
+    "simple CSV",
+    "t,x,y[,confidence]",
+    lambda text: is_simple_header(text.labels),
+    simple_samples,
+)
 
 
 def _check_samples(

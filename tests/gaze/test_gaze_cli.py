@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import importlib.util
+import json
 import os
 import subprocess
 import sys
@@ -189,3 +190,70 @@ def test_demo_trace_is_reproducible() -> None:
     spec.loader.exec_module(module)
     fresh = format_simple(*module.demo_trace())
     assert fresh == (ROOT / "scenes" / "traces" / "demo_gaze.csv").read_text(), "rerun scripts/make_demo_trace.py"
+
+
+def test_info_text_and_json(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    src = tmp_path / "export.tsv"
+    src.write_text(TOBII + "550\tEye Tracker\t99999\t540\n566.5\tEye", encoding="utf-8")
+    args = build_parser().parse_args(["info", str(src), "--screen", "1920x1080"])
+    assert run_gaze(args) == 0
+    assert capsys.readouterr().out.splitlines() == [
+        f"{src}: Tobii Pro Lab TSV export (format tobii)",
+        "  recordings: 1",
+        "  pixels: 1920x1080 (the recording's screen; --screen / screen=)",
+        "  skipped rows: 1 last row cut off, 1 Sensor is not 'Eye Tracker' (mouse, gyroscope, event rows)",
+        "  recording: 4 samples over 0.050 s at 60.6 Hz, 50.0% valid; invalid: 1 no gaze point, 1 outside the screen",
+    ]
+    assert run_gaze(build_parser().parse_args(["info", str(src), "--screen", "1920x1080", "--json"])) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["format"] == "tobii" and report["recordings_in_file"] == 1
+    assert report["skipped"] == {"last row cut off": 1, "Sensor is not 'Eye Tracker' (mouse, gyroscope, event rows)": 1}
+    (rec,) = report["recordings"]
+    assert (rec["id"], rec["samples"], rec["valid"], rec["valid_share"]) == (None, 4, 2, 0.5)
+    assert rec["duration_s"] == pytest.approx(0.05) and rec["rate_hz"] == pytest.approx(1 / 0.0165)
+    assert rec["invalid"] == {"no gaze point": 1, "outside the screen": 1}
+
+
+def test_info_lists_every_recording_and_reports_unreadable_ones(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    src = tmp_path / "gaze.csv"
+    src.write_text(
+        "recording id,timestamp [ns],gaze detected on surface,gaze position on surface x [normalized],"
+        "gaze position on surface y [normalized]\n"
+        "aaaa,1700000000000000000,True,0.5,0.5\n"
+        "aaaa,1700000000005000000,True,0.6,0.6\n"
+        "bbbb,1700000001000000000,False,0.1,0.1\n",
+        encoding="utf-8",
+    )
+    assert run_gaze(build_parser().parse_args(["info", str(src)])) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0] == f"{src}: Pupil Cloud Marker Mapper gaze.csv (format marker_mapper)"
+    assert lines[1] == "  recordings: 2"
+    assert lines[3].startswith("  recording aaaa: 2 samples over 0.005 s at 200.0 Hz, 100.0% valid")
+    assert lines[4].startswith("  recording bbbb: 1 rows, unreadable: no valid samples")
+    assert run_gaze(build_parser().parse_args(["info", str(src), "--recording", "aaaa", "--json"])) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert [r["id"] for r in report["recordings"]] == ["aaaa"] and report["recordings_in_file"] == 2
+
+
+def test_info_and_convert_under_a_parent_program() -> None:
+    parser = parent_parser()
+    args = parser.parse_args(["gaze", "info", "t.asc", "--recording", "r1", "--json", "--format", "eyelink"])
+    assert (args.gaze_command, args.input, args.recording, args.json, args.format) == (
+        "info",
+        "t.asc",
+        "r1",
+        True,
+        "eyelink",
+    )
+    assert parser.parse_args(["gaze", "convert", "a", "b", "--recording", "x"]).recording == "x"
+
+
+def test_python_m_gaze_info_bad_file(tmp_path: Path) -> None:
+    bad = tmp_path / "mystery.csv"
+    bad.write_text("when,where\n1,2\n", encoding="utf-8")
+    done = run_module("info", str(bad))
+    assert done.returncode == 2
+    assert done.stderr.startswith(f"error: {bad}: unknown columns ['when', 'where']; expected one of:")
+    assert len(done.stderr.strip().splitlines()) == 1

@@ -9,17 +9,21 @@ than bands); on CUDA the same kernel source runs one thread per pixel.  1-D kern
 (vertices, triangles, pixel lists) take ``start, step`` (``launch_items``).
 
 Passes whose writes could collide (the visibility buffer) use ``Launcher.run`` with
-one output buffer per piece and merge them afterwards.
+one output buffer per piece and merge them afterwards.  ``Launcher.profile`` (a
+``launch_profile.LaunchProfile``, None by default) times every piece by kernel.
 """
 
 from __future__ import annotations
 
 import os
+import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 import warp as wp
+
+from .launch_profile import LaunchProfile
 
 
 def default_thread_count(device: wp.context.Device) -> int:
@@ -44,6 +48,7 @@ class Launcher:
         self.threads = threads if threads is not None else default_thread_count(self.device)
         self._pool = ThreadPoolExecutor(max_workers=self.threads) if self.threads > 1 else None
         self._loaded: set[int] = set()
+        self.profile: LaunchProfile | None = None
 
     def close(self) -> None:
         """Stop the worker threads."""
@@ -65,11 +70,20 @@ class Launcher:
             self._loaded.add(key)
 
     def run(self, piece: Callable[[int, int], Any], pieces: int | None = None) -> list[Any]:
-        """Call ``piece(k, n)`` for k in 0..n-1, in parallel threads; return results.
+        """Call ``piece(k, n)`` for k in 0..n-1, in parallel threads; return results
+        (timed under the piece's name when profiling).
 
         Exceptions from any piece propagate to the caller.
         """
         n = self.threads if pieces is None else pieces
+        profile = self.profile
+        if profile is None:
+            return self._map(piece, n)
+        name = getattr(piece, "__qualname__", "run")
+        return self._map(lambda k, count: profile.timed(name, k, piece, k, count), n)
+
+    def _map(self, piece: Callable[[int, int], Any], n: int) -> list[Any]:
+        """``piece(k, n)`` for k in 0..n-1 on the pool (inline for one piece)."""
         if n <= 1 or self._pool is None:
             return [piece(k, n) for k in range(n)]
         futures = [self._pool.submit(piece, k, n) for k in range(n)]
@@ -89,15 +103,15 @@ class Launcher:
             return
         self.ensure_loaded(kernel)
         if self.device.is_cuda:
-            wp.launch(kernel, dim=(height, width), inputs=[*inputs, 0, 1, 1], device=self.device)
+            self._launch(kernel, 0, (height, width), [*inputs, 0, 1, 1])
             return
         n = min(self.threads, height)
 
         def piece(k: int, count: int) -> None:
             rows = (height - k + count - 1) // count
-            wp.launch(kernel, dim=(rows, 1), inputs=[*inputs, k, count, width], device=self.device)
+            self._launch(kernel, k, (rows, 1), [*inputs, k, count, width])
 
-        self.run(piece, n)
+        self._map(piece, n)
 
     def launch_items(self, kernel: wp.Kernel, count: int, inputs: Sequence[Any]) -> None:
         """Launch a 1-D kernel over ``count`` items split across threads.
@@ -112,6 +126,18 @@ class Launcher:
 
         def piece(k: int, pieces: int) -> None:
             items = (count - k + pieces - 1) // pieces
-            wp.launch(kernel, dim=items, inputs=[*inputs, k, pieces], device=self.device)
+            self._launch(kernel, k, items, [*inputs, k, pieces])
 
-        self.run(piece, n)
+        self._map(piece, n)
+
+    def _launch(self, kernel: wp.Kernel, piece: int, dim: Any, inputs: list[Any]) -> None:
+        """One ``wp.launch`` (piece ``piece`` of a pass), timed by kernel when profiling."""
+        profile = self.profile
+        if profile is None:
+            wp.launch(kernel, dim=dim, inputs=inputs, device=self.device)
+            return
+        start = time.perf_counter()
+        wp.launch(kernel, dim=dim, inputs=inputs, device=self.device)
+        if self.device.is_cuda:
+            wp.synchronize_device(self.device)
+        profile.record(kernel.key, piece, time.perf_counter() - start)

@@ -132,6 +132,8 @@ class Frame:
     AOVs are the pixel centres' whatever the samples per pixel.
     ``image``: (H, W, 3) uint8 sRGB after exposure, tone mapping and anti-aliasing.
     ``stats``: JSON-ready dict (ms per stage, triangles, resolution, device, ...).
+    ``origin``: the scene's local frame (``Scene.origin``, float64), which the device's
+    positions are relative to.
     ``gbuffer`` is the renderer's own buffer: valid until its next ``render``; so are
     ``color`` and ``visibility`` when the frame was rendered without host copies
     (``render(..., host_copies=False)``), read from the device when first used.
@@ -141,6 +143,7 @@ class Frame:
     gbuffer: GBuffer
     buffers: FrameBuffers
     stats: dict[str, Any] = field(default_factory=dict)
+    origin: np.ndarray = field(default_factory=lambda: np.zeros(3))
     _color: np.ndarray | None = None
     _visibility: np.ndarray | None = None
 
@@ -165,9 +168,11 @@ class Frame:
         self._visibility = self.buffers.visibility.numpy().astype(np.float32)
 
     def aovs(self) -> dict[str, np.ndarray]:
-        """The AOV contract: depth, position, normal, albedo from the G-buffer,
-        color (linear, before tone mapping) and visibility."""
+        """The AOV contract: depth, position (world space: the local frame's hit point
+        plus ``origin``, added in float64), normal, albedo from the G-buffer, color
+        (linear, before tone mapping) and visibility."""
         out = self.gbuffer.aovs()
+        out["position"] = (out["position"].astype(np.float64) + self.origin).astype(np.float32)
         out["color"] = self.color
         out["visibility"] = self.visibility
         return out
@@ -354,7 +359,12 @@ class Renderer:
         with frame.timer.stage("readback"):
             image = np.array(frame.image.numpy(), copy=True)
             rays = frame.rays.counts() if frame.rays is not None else None
-            out = Frame(image=image, gbuffer=self.buffers.gbuffer, buffers=self.buffers)
+            out = Frame(
+                image=image,
+                gbuffer=self.buffers.gbuffer,
+                buffers=self.buffers,
+                origin=np.asarray(self.scene.origin, dtype=np.float64),
+            )
             if host_copies:
                 out.copy_to_host()
         stats = {

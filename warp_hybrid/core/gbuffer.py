@@ -51,7 +51,7 @@ CHANNELS: tuple[Channel, ...] = (
     Channel("triangle_id", wp.int32, -1, "nearest triangle (hit record; -1 background)"),
     Channel("depth", wp.float32, math.inf, "view depth along the camera's forward axis (hit record)", math.inf),
     Channel("barycentric", wp.vec2, 0.0, "Warp's (u, v) of the hit on triangle_id (hit record)"),
-    Channel("position", wp.vec3, 0.0, "world-space hit point", math.nan),
+    Channel("position", wp.vec3, 0.0, "hit point in the scene's local frame (world = it + Scene.origin)", math.nan),
     Channel("normal", wp.vec3, 0.0, "unit shading normal, facing the camera", math.nan),
     Channel("geometric_normal", wp.vec3, 0.0, "unit face normal, facing the camera (ray offsets)"),
     Channel("albedo", wp.vec3, 0.0, "diffuse colour: linear, textures applied, times (1 - metallic)", 0.0),

@@ -1,8 +1,11 @@
 """Host-side scene model: what a loader produces and every later stage consumes.
 
-Everything here is plain numpy in world space, already flattened (instances and
-transforms baked at one time code), so stages never touch pxr.  Arrays use float32
-for geometry and linear colours.  ``DeviceScene`` (``scene/device/upload.py``) uploads a
+Everything here is plain numpy, already flattened (instances and transforms baked at
+one time code), so stages never touch pxr.  Arrays use float32 for geometry and linear
+colours.  Positions (points, cameras, lights) are in the scene's *local frame*: world =
+local + ``Scene.origin`` (float64; 0 unless the scene lies far from the world origin
+compared with its camera's near distance, ``scene.local_frame``), so float32 keeps its
+precision wherever the scene sits.  ``DeviceScene`` (``scene/device/upload.py``) uploads a
 ``Scene`` to Warp arrays once and refits its BVH when animated points move.
 
 Conventions (see the README): right-handed world, cameras look down their local -Z,
@@ -143,7 +146,7 @@ class Material:
 
 @dataclass
 class Light:
-    """A UsdLux light in world space, intensity already folded into ``color``.
+    """A UsdLux light in the scene's local frame, intensity already folded into ``color``.
 
     ``color`` = inputs:color * intensity * 2**exposure (times the colour temperature
     tint when enabled).  ``position`` is the light's origin; ``direction`` is its local
@@ -186,7 +189,7 @@ class Camera:
     """A pinhole camera.
 
     ``cam_to_world`` is a 4x4 float64 matrix for column vectors
-    (``p_world = cam_to_world @ [p_cam, 1]``); the camera looks down its local -Z with
+    (``p_world = cam_to_world @ [p_cam, 1]``, "world" being the scene's local frame); the camera looks down its local -Z with
     +Y up.  Field of view uses a horizontal aperture fit:
     ``tan(half hfov) = horizontal_aperture / (2 * focal_length)``; the vertical FOV
     follows from the image aspect ratio.
@@ -242,7 +245,8 @@ class MeshRange:
 class Scene:
     """A whole scene, flattened at one time code.
 
-    Geometry: ``points`` (N, 3) world-space vertices; ``indices`` (T, 3) int32 into
+    Geometry: ``points`` (N, 3) vertices in the local frame (world = points +
+    ``origin``, see the module docstring); ``indices`` (T, 3) int32 into
     ``points``; ``corner_normals`` (T, 3, 3) and ``corner_uvs`` (T, 3, 2) per triangle
     corner (so any USD interpolation maps onto them); ``triangle_material`` (T,) int32
     into ``materials``.  Normals are unit length and follow the mesh orientation
@@ -268,6 +272,7 @@ class Scene:
     meters_per_unit: float = 1.0
     up_axis: str = "Y"
     warnings: list[str] = field(default_factory=list)
+    origin: np.ndarray = field(default_factory=lambda: np.zeros(3, dtype=np.float64))
 
     @property
     def triangle_count(self) -> int:
@@ -276,7 +281,7 @@ class Scene:
 
     @property
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        """Axis-aligned world bounds (min, max) of all points."""
+        """Axis-aligned bounds (min, max) of all points, in the local frame."""
         if len(self.points) == 0:
             z = np.zeros(3, dtype=np.float64)
             return z, z

@@ -24,7 +24,6 @@ import warp as wp
 
 from ..scene.device import DeviceScene
 from ..scene.model import Material
-from .offset import scene_scale
 
 
 @wp.struct
@@ -45,14 +44,12 @@ def lets_light_through(m: Material) -> bool:
 
 
 class Occluders:
-    """The two shadow BVHs of one ``DeviceScene`` (see the module docstring) and its
-    scale ``S`` for ray offsets (``offset.scene_scale``)."""
+    """The two shadow BVHs of one ``DeviceScene`` (see the module docstring)."""
 
     def __init__(self, scene: DeviceScene) -> None:
         """Split ``scene``'s triangles by material and build the BVHs (once)."""
         self.scene = scene
         self._geometry_version = scene.geometry_version
-        self.scale = scene_scale(scene.scene.bounds)
         self._materials_version = scene.materials_version
         special_mat = np.array([lets_light_through(m) for m in scene.scene.materials] or [False], dtype=bool)
         tri_mat = np.asarray(scene.scene.triangle_material, dtype=np.int64)
@@ -89,10 +86,9 @@ class Occluders:
         return scene is self.scene and self._materials_version == scene.materials_version
 
     def refresh(self) -> None:
-        """Refit the BVHs (and update ``scale``) if the scene's points moved since the
+        """Refit the BVHs if the scene's points moved since the
         last call (``DeviceScene.geometry_version``)."""
         if self.scene.geometry_version != self._geometry_version:
             for mesh in self._meshes:
                 mesh.refit()
-            self.scale = scene_scale(self.scene.scene.bounds)
             self._geometry_version = self.scene.geometry_version

@@ -1,55 +1,60 @@
 """Ray origins that cannot re-hit the surface they leave (``@wp.func``, no kernels).
 
-The method of Wächter & Binder, "A Fast and Robust Method for Avoiding
-Self-Intersection" (Ray Tracing Gems, chapter 6): move the hit point along the
-geometric normal by a fixed number of units in the last place (``INT_SCALE`` = 256
-ULPs times the normal component, applied to the float's bit pattern as an integer,
-via Warp's bit-preserving ``wp.cast``), so the offset grows with the magnitude of each
-coordinate exactly as the rounding error of the computed hit point does.  Coordinates
-close to zero, where ULPs shrink towards denormals, take a fixed offset
-``FLOAT_SCALE`` instead, below ``ORIGIN``.
+A hit point ``p`` interpolated from a triangle's float32 corners lies off the exact
+plane by a few units in the last place of the corners' largest coordinate ``M``
+(pbrt-v4's bound for barycentric interpolation is ``gamma(7) M``, about 7 ulps), and a
+ray leaving ``p`` is intersected by ``wp.mesh_query_ray`` (watertight Woop et al. in
+float32, corners taken relative to the ray origin) with an error in t of about ten
+ulps of the corners' distance from the origin, i.e. of the triangle's extent ``E``.
+So the origin moves along the unit geometric normal by
 
-The chapter's constants (origin 1/32, float_scale 1/65536, int_scale 256) assume a
-scene of size about 1.  Here ``ORIGIN`` and ``FLOAT_SCALE`` are multiplied by the
-scene's scale ``S`` (the largest absolute coordinate of its bounds, see
-``scene_scale``), so a millimetre-sized scene near the origin is offset by 1/65536 of
-its own size rather than by 1.5e-5 absolute units, and a scene 1e4 units wide by
-1/65536 of 1e4; for S = 1 this is exactly the published method.
+    delta = OFFSET_ULPS_M * 2^-23 * max(M, EXTENT_WEIGHT * E)
+
+(``hit_bound``: 16 ulps of M, or 128 ulps of E when the triangle is large compared
+with its distance from the local origin), which exceeds both errors by more than an
+order of magnitude and is a property of the hit alone, not of the scene: a tiny object
+next to a huge one keeps contact shadows, a scene far from the world origin (stored in
+its local frame, ``scene.local_frame``) or rescaled gets the same offsets relative to
+its own size.  The rounding of ``p + delta n`` to float32 moves the point by at most
+half an ulp of M per axis, far below delta.
+
+``offset_ray_origin(p, n, bound)`` takes the bound directly (pass ``hit_bound`` of the
+triangle, or any larger magnitude for a more conservative offset).
 """
 
 from __future__ import annotations
 
-import numpy as np
 import warp as wp
 
-ORIGIN = wp.constant(1.0 / 32.0)
-FLOAT_SCALE = wp.constant(1.0 / 65536.0)
-INT_SCALE = wp.constant(256.0)
+from ..core.scene_gpu import SceneGPU
 
-
-def scene_scale(bounds: tuple[np.ndarray, np.ndarray]) -> float:
-    """``S`` for ``offset_ray_origin``: the largest absolute coordinate of the scene's
-    axis-aligned bounds (min, max), at least 1e-30."""
-    lo, hi = (np.asarray(b, dtype=np.float64) for b in bounds)
-    return float(max(np.max(np.abs(lo)), np.max(np.abs(hi)), 1.0e-30))
+#: delta in units of the bound: 16 float32 ulps (2^-23 relative) of it.
+OFFSET_SCALE = wp.constant(2.0**-19)
+#: How the triangle's extent weighs in the bound (128 / 16 ulps: 2^-16 of the extent).
+EXTENT_WEIGHT = wp.constant(8.0)
 
 
 @wp.func
-def _offset_coord(p: float, n: float, scale: float) -> float:
-    """One coordinate of ``offset_ray_origin``."""
-    if wp.abs(p) < ORIGIN * scale:
-        return p + FLOAT_SCALE * scale * n
-    of_i = int(INT_SCALE * n)
-    bits = wp.cast(p, wp.int32)
-    if p < 0.0:
-        bits = bits - of_i
-    else:
-        bits = bits + of_i
-    return wp.cast(bits, wp.float32)
+def _max_abs(v: wp.vec3) -> float:
+    return wp.max(wp.abs(v[0]), wp.max(wp.abs(v[1]), wp.abs(v[2])))
 
 
 @wp.func
-def offset_ray_origin(p: wp.vec3, n: wp.vec3, scale: float) -> wp.vec3:
+def hit_bound(scene: SceneGPU, face: int) -> float:
+    """The magnitude the error of a point on triangle ``face`` scales with:
+    ``max(M, EXTENT_WEIGHT * E)`` (module docstring)."""
+    k = 3 * face
+    p0 = scene.points[scene.indices[k]]
+    p1 = scene.points[scene.indices[k + 1]]
+    p2 = scene.points[scene.indices[k + 2]]
+    m = wp.max(_max_abs(p0), wp.max(_max_abs(p1), _max_abs(p2)))
+    e = wp.max(_max_abs(p1 - p0), wp.max(_max_abs(p2 - p0), _max_abs(p2 - p1)))
+    return wp.max(m, EXTENT_WEIGHT * e)
+
+
+@wp.func
+def offset_ray_origin(p: wp.vec3, n: wp.vec3, bound: float) -> wp.vec3:
     """``p`` moved off its surface to the side of the unit geometric normal ``n`` (pass
-    ``-n`` to leave through the far side); ``scale`` is the scene's ``S``."""
-    return wp.vec3(_offset_coord(p[0], n[0], scale), _offset_coord(p[1], n[1], scale), _offset_coord(p[2], n[2], scale))
+    ``-n`` to leave through the far side) by ``OFFSET_SCALE * bound``; ``bound`` is
+    the hit's ``hit_bound`` (or a larger magnitude)."""
+    return p + n * (OFFSET_SCALE * bound)

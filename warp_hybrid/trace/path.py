@@ -45,9 +45,9 @@ from ..lighting.lights import light_sample
 from ..lighting.shading import diffuse_albedo, light_response, shade_surface
 from ..scene.device.environment import environment_radiance
 from ..scene.device.surface import SurfaceHit, is_cut_away, surface_at
-from .offset import offset_ray_origin
+from .offset import hit_bound, offset_ray_origin
 from .optics import make_transmission_func, mirror_direction, transmission_tint
-from .rays import MAX_LAYERS, MIN_THROUGHPUT, RayHit, TraceFrame, TraceParams, max3, step_past
+from .rays import MAX_LAYERS, MIN_THROUGHPUT, RayHit, TraceFrame, max3, step_past
 from .shadows import make_light_func
 from .variant import TraceVariant
 
@@ -149,7 +149,7 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
     secondary = variant.secondary
 
     @wp.func
-    def closest_hit(scene: SceneGPU, params: TraceParams, o: wp.vec3, d: wp.vec3) -> RayHit:
+    def closest_hit(scene: SceneGPU, o: wp.vec3, d: wp.vec3) -> RayHit:
         out = RayHit()
         out.face = -1
         origin = o
@@ -159,7 +159,7 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
                 return out
             if wp.static(cutouts):
                 if is_cut_away(scene, q.face, q.u, q.v):
-                    origin = step_past(scene, params, q.face, q.u, q.v, q.normal, d)
+                    origin = step_past(scene, q.face, q.u, q.v, q.normal, d)
                     continue
             out.face = q.face
             out.u = q.u
@@ -176,14 +176,16 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
         pixel: int,
         segment: int,
         h: SurfaceHit,
+        bound: float,
         d: wp.vec3,
         weight: wp.vec3,
         depth: int,
         can_push: bool,
     ) -> HitShading:
-        """Shade hit ``h`` seen along ``d`` with path ``weight`` at ``depth``; segment 0
-        (the primary point) takes the shadow kernel's transmittances.  Two branches
-        split only when ``can_push`` (room on the stack); otherwise the reflection goes on."""
+        """Shade hit ``h`` (on a triangle whose ``offset.hit_bound`` is ``bound``) seen
+        along ``d`` with path ``weight`` at ``depth``; segment 0 (the primary point) takes
+        the shadow kernel's transmittances.  Two branches split only when ``can_push``
+        (room on the stack); otherwise the reflection goes on."""
         zero = wp.vec3(0.0, 0.0, 0.0)
         out = HitShading()
         out.shadow_rays = 0
@@ -212,7 +214,7 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
                     tr = tf.transmittance[item, i]
                 elif max3(wp.cw_mul(weight, c)) >= MIN_THROUGHPUT * INV_PI * max3(ls.e_normal):
                     r = light_transmittance(
-                        scene, tf.params, tf.occ, i, ls, h.position, n, ng, transmissive, pixel, segment
+                        scene, tf.params, tf.occ, i, ls, h.position, n, ng, bound, transmissive, pixel, segment
                     )
                     tr = r.transmittance
                     out.shadow_rays += r.rays
@@ -276,23 +278,15 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
             if a_ok and b_ok and can_push:
                 # follow the heavier branch, push the other
                 if max3(b_w) > max3(a_w):
-                    out.pushed = make_ray(
-                        offset_ray_origin(h.position, ng, tf.params.scale), a_d, a_w, depth + 1, KIND_REFLECT
-                    )
+                    out.pushed = make_ray(offset_ray_origin(h.position, ng, bound), a_d, a_w, depth + 1, KIND_REFLECT)
                     a_ok = False
                 else:
-                    out.pushed = make_ray(
-                        offset_ray_origin(h.position, -ng, tf.params.scale), b_d, b_w, depth + 1, KIND_REFRACT
-                    )
+                    out.pushed = make_ray(offset_ray_origin(h.position, -ng, bound), b_d, b_w, depth + 1, KIND_REFRACT)
                     b_ok = False
             if a_ok:
-                out.next = make_ray(
-                    offset_ray_origin(h.position, ng, tf.params.scale), a_d, a_w, depth + 1, KIND_REFLECT
-                )
+                out.next = make_ray(offset_ray_origin(h.position, ng, bound), a_d, a_w, depth + 1, KIND_REFLECT)
             elif b_ok:
-                out.next = make_ray(
-                    offset_ray_origin(h.position, -ng, tf.params.scale), b_d, b_w, depth + 1, KIND_REFRACT
-                )
+                out.next = make_ray(offset_ray_origin(h.position, -ng, bound), b_d, b_w, depth + 1, KIND_REFRACT)
         return out
 
     @wp.kernel(enable_backward=False, module="unique")
@@ -318,6 +312,7 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
 
         d = wp.normalize(tf.gb.position[y, x] - tf.cam.origin)
         h = gbuffer_surface(scene, tf.gb, y, x, d)
+        bound = hit_bound(scene, tf.gb.triangle_id[y, x])
         weight = wp.vec3(1.0, 1.0, 1.0)
         depth = int(0)
         segment = int(0)
@@ -338,7 +333,7 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
             if have_hit != 0:
                 have_hit = 0
                 can_push = stack_size < wp.static(MAX_DEPTH)
-                s = shade_hit(scene, amb, tf, item, pixel, segment, h, d, weight, depth, can_push)
+                s = shade_hit(scene, amb, tf, item, pixel, segment, h, bound, d, weight, depth, can_push)
                 segment += 1
                 radiance += s.radiance
                 shadow_rays += s.shadow_rays
@@ -367,9 +362,10 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
                 reflect_rays += 1
             else:
                 refract_rays += 1
-            hit = closest_hit(scene, tf.params, ray.origin, ray.direction)
+            hit = closest_hit(scene, ray.origin, ray.direction)
             if hit.face >= 0:
                 h = surface_at(scene, hit.face, hit.u, hit.v, ray.direction)
+                bound = hit_bound(scene, hit.face)
                 d = ray.direction
                 weight = ray.weight
                 depth = ray.depth

@@ -1,7 +1,8 @@
 """What every traced ray shares: per-frame parameters, hits, and stepping past a surface.
 
-Ray origins are offset with ``offset.offset_ray_origin`` (Ray Tracing Gems ch. 6,
-scale-aware) along the geometric normal, to the side the ray travels to.  Pixel lists
+Ray origins are offset with ``offset.offset_ray_origin`` along the geometric normal,
+to the side the ray travels to, by the error bound of the hit's own triangle
+(``offset.hit_bound``).  Pixel lists
 hold flat indices ``row * width + column``.
 """
 
@@ -13,7 +14,7 @@ from ..core.camera import CameraGPU
 from ..core.gbuffer import GBufferArrays
 from ..core.scene_gpu import SceneGPU
 from .occluders import OccluderGPU
-from .offset import offset_ray_origin
+from .offset import hit_bound, offset_ray_origin
 
 MIN_THROUGHPUT = wp.constant(1.0e-3)
 MAX_LAYERS = wp.constant(64)
@@ -21,9 +22,9 @@ MAX_LAYERS = wp.constant(64)
 
 @wp.struct
 class TraceParams:
-    """Per-frame constants: scene scale for ray offsets, path depth, shadow samples, seed."""
+    """Per-frame constants: path depth, shadow samples, seed (ray offsets need none:
+    ``offset.hit_bound`` bounds each hit on its own)."""
 
-    scale: float
     max_depth: int
     shadow_samples: int
     seed: int
@@ -78,10 +79,9 @@ def triangle_position(scene: SceneGPU, face: int, u: float, v: float) -> wp.vec3
 
 
 @wp.func
-def step_past(scene: SceneGPU, params: TraceParams, face: int, u: float, v: float, ng: wp.vec3, d: wp.vec3) -> wp.vec3:
+def step_past(scene: SceneGPU, face: int, u: float, v: float, ng: wp.vec3, d: wp.vec3) -> wp.vec3:
     """Origin just beyond the surface hit at (face, u, v), on the side ``d`` travels to."""
     n = ng
     if wp.dot(n, d) < 0.0:
         n = -n
-    return offset_ray_origin(triangle_position(scene, face, u, v), n, params.scale)
-
+    return offset_ray_origin(triangle_position(scene, face, u, v), n, hit_bound(scene, face))

@@ -36,7 +36,7 @@ from ..lighting.light_sampling import center_ray_length, light_has_extent, sampl
 from ..lighting.lights import LightSample, light_sample
 from ..scene.device.surface import is_cut_away, surface_at
 from .occluders import OccluderGPU
-from .offset import offset_ray_origin
+from .offset import hit_bound, offset_ray_origin
 from .optics import transmission_tint
 from .rays import MAX_LAYERS, TraceFrame, TraceParams, is_emissive, max3, step_past
 
@@ -64,14 +64,12 @@ def light_reaches(ls_irradiance: wp.vec3, ls_e_normal: wp.vec3, n_dot_l: float) 
 
 
 def _make_transmittance_func(layered: bool, cutouts: bool):
-    """``ray_transmittance(scene, occ, params, o, d, max_t)``: any-hit against the opaque
+    """``ray_transmittance(scene, occ, o, d, max_t)``: any-hit against the opaque
     BVH, then (``layered``) the ordered walk through the transmissive, cut-out and
     emissive surfaces of the special BVH."""
 
     @wp.func
-    def ray_transmittance(
-        scene: SceneGPU, occ: OccluderGPU, params: TraceParams, o: wp.vec3, d: wp.vec3, max_t: float
-    ) -> wp.vec3:
+    def ray_transmittance(scene: SceneGPU, occ: OccluderGPU, o: wp.vec3, d: wp.vec3, max_t: float) -> wp.vec3:
         zero = wp.vec3(0.0, 0.0, 0.0)
         t = wp.vec3(1.0, 1.0, 1.0)
         if max_t <= 0.0:
@@ -104,7 +102,7 @@ def _make_transmittance_func(layered: bool, cutouts: bool):
                     t = wp.cw_mul(t, crossing_transmittance(scene, face, q.u, q.v, d))
                     if max3(t) <= 0.0:
                         return zero
-            origin = step_past(scene, params, face, q.u, q.v, q.normal, d)
+            origin = step_past(scene, face, q.u, q.v, q.normal, d)
             remaining = max_t - wp.dot(origin - o, d)
             if remaining <= 0.0:
                 return t
@@ -114,10 +112,11 @@ def _make_transmittance_func(layered: bool, cutouts: bool):
 
 
 def make_light_func(layered: bool, soft: bool, cutouts: bool):
-    """``light_transmittance(scene, params, occ, i, ls, p, n, ng, transmissive, pixel, segment)``:
+    """``light_transmittance(scene, params, occ, i, ls, p, n, ng, bound, transmissive, pixel, segment)``:
     the RGB transmittance toward light ``i`` (its sample ``ls`` at ``p``), averaged
     over the shadow samples that leave the surface on the lit side (transmissive
-    points may send them through their far side)."""
+    points may send them through their far side); ``bound`` is ``offset.hit_bound``
+    of the triangle ``p`` lies on."""
     ray_transmittance = _make_transmittance_func(layered, cutouts)
 
     @wp.func
@@ -130,6 +129,7 @@ def make_light_func(layered: bool, soft: bool, cutouts: bool):
         p: wp.vec3,
         n: wp.vec3,
         ng: wp.vec3,
+        bound: float,
         transmissive: bool,
         pixel: int,
         segment: int,
@@ -161,8 +161,8 @@ def make_light_func(layered: bool, soft: bool, cutouts: bool):
                 if not transmissive:
                     continue
                 side = -ng
-            o = offset_ray_origin(p, side, params.scale)
-            total += ray_transmittance(scene, occ, params, o, d, length - wp.dot(o - p, d))
+            o = offset_ray_origin(p, side, bound)
+            total += ray_transmittance(scene, occ, o, d, length - wp.dot(o - p, d))
             out.rays += 1
         if out.rays > 0:
             out.transmittance = total / float(out.rays)
@@ -193,10 +193,11 @@ def shadow_kernel(layered: bool, soft: bool, cutouts: bool) -> wp.Kernel:
         p = tf.gb.position[y, x]
         n = tf.gb.normal[y, x]
         ng = tf.gb.geometric_normal[y, x]
+        bound = hit_bound(scene, tf.gb.triangle_id[y, x])
         rays = int(0)
         for i in range(scene.light_count):
             ls = light_sample(scene.lights[i], p, n)
-            r = light_transmittance(scene, tf.params, tf.occ, i, ls, p, n, ng, transmissive, pixel, 0)
+            r = light_transmittance(scene, tf.params, tf.occ, i, ls, p, n, ng, bound, transmissive, pixel, 0)
             tf.transmittance[item, i] = r.transmittance
             visibility[y, x, i] = wp.clamp(luma709(r.transmittance), 0.0, 1.0)
             rays += r.rays

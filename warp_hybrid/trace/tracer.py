@@ -176,9 +176,8 @@ class Tracer(RenderPass):
             self._counts = wp.empty((shape_t[0], COUNT_COLUMNS), dtype=wp.int32, device=dev)
         return self._transmittance, self._counts
 
-    def _params(self, occluders: Occluders, sample_index: int) -> TraceParams:
+    def _params(self, sample_index: int) -> TraceParams:
         p = TraceParams()
-        p.scale = occluders.scale
         p.max_depth = self.settings.max_depth
         p.shadow_samples = self.settings.shadow_samples
         p.seed = sample_seed(self.settings.seed, sample_index)
@@ -241,7 +240,7 @@ class Tracer(RenderPass):
         occluders = self._occluders_for(scene, timer)
         tf = TraceFrame()
         tf.cam = camera
-        tf.params = self._params(occluders, sample_index)
+        tf.params = self._params(sample_index)
         tf.occ = occluders.gpu
         tf.gb = gbuffer.kernel_arrays()
         tf.pixels = pixels

@@ -22,7 +22,9 @@ def _camera(stage, path, focal=35.0, h=20.955, v=15.2908, clip=(0.1, 500.0)):
     return cam
 
 
-def test_camera_parameters_and_transform_without_scale(tmp_path):
+def test_camera_parameters_and_a_uniformly_scaled_transform(tmp_path):
+    """The camera's frame drops the rig's scale; the clipping range scales with it, as
+    ``Gf.Frustum.Transform`` defines it (the field of view does not change)."""
     stage, path = new_stage(tmp_path)
     unit_quad(stage, "/World/Q")
     rig = UsdGeom.Xform.Define(stage, "/World/Rig")
@@ -34,7 +36,7 @@ def test_camera_parameters_and_transform_without_scale(tmp_path):
     c = scene.cameras[0]
     assert c.name == "/World/Rig/Cam"
     assert (c.focal_length, c.horizontal_aperture, c.vertical_aperture) == pytest.approx((35.0, 20.955, 15.2908))
-    assert (c.near, c.far) == pytest.approx((0.1, 500.0))
+    assert (c.near, c.far) == pytest.approx((0.2, 1000.0))
     np.testing.assert_allclose(c.position, (1, 2, 3), atol=1e-9)
     a = math.radians(30.0)
     np.testing.assert_allclose(c.forward, (-math.sin(a), 0, -math.cos(a)), atol=1e-9)  # local -Z turned about Y

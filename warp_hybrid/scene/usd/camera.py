@@ -2,9 +2,12 @@
 that have none.
 
 A USD camera is evaluated with ``UsdGeom.Camera.GetCamera(time)`` (a ``Gf.Camera``:
-focal length, horizontal/vertical aperture, clipping range, world transform).  Its
-``cam_to_world`` is the world transform with scale and shear removed (the closest
-rotation), so the view is defined by the apertures alone.
+focal length, horizontal/vertical aperture, clipping range, world transform) and
+placed as ``Gf.Frustum.Transform`` places its frustum (``world_frustum``): the
+position and rotation of the transformed frustum make ``cam_to_world`` (a rigid
+transform), its window on the plane at distance 1 gives the effective apertures (the
+authored ones, unless the scale is not uniform) and its near/far the clipping range in
+world units (a camera under a 1e-3 scale clips at 1e-3 of its authored range).
 
 Framing camera (stage without cameras): 50 mm lens on a 36 x 24 aperture, looking at
 the centre of the scene's bounding box from the front and 20 degrees above
@@ -27,32 +30,43 @@ from .validate import Diagnostics
 FRAMING_CAMERA_NAME = "<framing camera>"
 
 
-def _closest_rotation(m3: np.ndarray) -> np.ndarray:
-    u, _s, vt = np.linalg.svd(m3)
-    return u @ vt
+def world_frustum(gf: Gf.Camera) -> Gf.Frustum:
+    """The camera's frustum in world space as USD defines it: the camera-space frustum
+    (apertures, focal length, clipping range) transformed by the camera's
+    local-to-world matrix with ``Gf.Frustum.Transform``, so a scaled camera's clipping
+    range scales with it (along its view axis) and a non-uniform scale changes its
+    field of view, while shear is dropped."""
+    local = Gf.Camera(gf)
+    local.transform = Gf.Matrix4d(1.0)
+    frustum = local.frustum
+    frustum.Transform(gf.transform)
+    return frustum
 
 
 def read_camera(prim: Usd.Prim, time: float, diag: Diagnostics) -> Camera:
-    """The camera ``prim`` at ``time`` in world space."""
+    """The camera ``prim`` at ``time`` in world space (``world_frustum``)."""
     name = str(prim.GetPath())
     gf = UsdGeom.Camera(prim).GetCamera(Usd.TimeCode(time))
     if gf.projection != Gf.Camera.Perspective:
         diag.warn("orthographic projection is not supported; rendered as a perspective camera", name)
     if abs(gf.horizontalApertureOffset) > 0 or abs(gf.verticalApertureOffset) > 0:
         diag.warn("aperture offsets are not supported, ignored", name)
-    row = np.array(gf.transform, dtype=np.float64)
+    frustum = world_frustum(gf)
+    rotation = np.array(Gf.Matrix4d().SetRotate(frustum.GetRotation()), dtype=np.float64)
     cam_to_world = np.eye(4)
-    cam_to_world[:3, :3] = _closest_rotation(row[:3, :3].T)
-    cam_to_world[:3, 3] = row[3, :3]
-    clip = gf.clippingRange
+    cam_to_world[:3, :3] = rotation[:3, :3].T
+    cam_to_world[:3, 3] = np.array(frustum.GetPosition(), dtype=np.float64)
+    window = frustum.GetWindow()
+    near, far = frustum.GetNearFar().min, frustum.GetNearFar().max
+    focal = float(gf.focalLength)
     return Camera(
         name=name,
         cam_to_world=cam_to_world,
-        focal_length=float(gf.focalLength),
-        horizontal_aperture=float(gf.horizontalAperture),
-        vertical_aperture=float(gf.verticalAperture),
-        near=float(clip.min),
-        far=float(clip.max),
+        focal_length=focal,
+        horizontal_aperture=focal * float(window.max[0] - window.min[0]),
+        vertical_aperture=focal * float(window.max[1] - window.min[1]),
+        near=float(near),
+        far=float(far),
     )
 
 

@@ -12,7 +12,7 @@ def scene_info(scene: Scene, source: UsdSceneSource | None = None) -> dict:
     units, bounds, the effects the scene needs and the loader's warnings.  Only plain
     Python types, so ``json.dumps`` takes it as is.  ``source`` adds the layers pxr
     composed."""
-    lo, hi = scene.bounds
+    lo, hi = (b + scene.origin for b in scene.bounds)  # world bounds (the points are local)
     lights = [{"kind": light.kind.name.lower(), "name": light.name} for light in scene.lights]
     if scene.environment is not None:
         lights.append({"kind": "dome", "name": scene.environment.name})

@@ -43,6 +43,11 @@ prims, ``MESH@INSTANCER[i]`` for PointInstancer instance ``i``).  A stage withou
 cameras gets one framing camera (``camera.framing_camera``), placed at the first
 time code evaluated and kept still afterwards.  The stage is treated as read-only
 while the source is open.
+
+World positions are computed in float64 and stored relative to the source's local
+origin (``scene.local_frame.choose_origin``: from the default camera at the first time
+evaluated, then fixed), so points, cameras and lights keep float32 precision wherever
+the stage sits; ``Scene.origin`` holds it.
 """
 
 from __future__ import annotations
@@ -54,6 +59,7 @@ import numpy as np
 from pxr import Sdf, Usd, UsdGeom, UsdLux, UsdShade
 
 from ...errors import SceneError
+from ..local_frame import choose_origin, local_camera, local_light, local_points
 from ..model import Camera, Material, MeshRange, Scene
 from .camera import FRAMING_CAMERA_NAME, framing_camera, read_camera
 from .lights import read_lights
@@ -149,12 +155,13 @@ class _Patch:
 
     def __init__(self, scene: Scene) -> None:
         self.arrays = {name: getattr(scene, name) for name in _GEOMETRY}
+        self.origin = scene.origin
         self.finite = True
         self._copied: set[str] = set()
 
     def write(self, part: _Part, first_point: int, first_triangle: int) -> None:
         w = part.world
-        self._put("points", first_point, w.points)
+        self._put("points", first_point, local_points(w.points, self.origin))
         self._put("indices", first_triangle, w.tri_points + first_point)
         self._put("corner_normals", first_triangle, w.corner_normals)
         self._put("corner_uvs", first_triangle, w.corner_uvs)
@@ -223,6 +230,7 @@ class UsdSceneSource:
         self._local: dict[str, LocalMesh] = {}
         self._parts: dict[str, _Part] = {}
         self._framing: Camera | None = None
+        self._origin: np.ndarray | None = None  # the local frame, chosen at the first evaluation
         self._frame: _Frame | None = None  # the last evaluation, which later times update
         # False while no used layer holds time samples and no prim uses value clips:
         # then nothing can vary over time and the per-attribute queries are skipped.
@@ -258,18 +266,23 @@ class UsdSceneSource:
         try:  # textures decode on worker threads meanwhile; always collect them
             trav = self._traverse(t, xcache)
             parts = [self._part(item, t) for item in trav.items]
-            scene = self._assemble(parts, t)
-            scene.lights, scene.environment = read_lights(trav.lights, t, xcache, self.images, self.diagnostics)
-            scene.cameras = [read_camera(p, t, self.diagnostics) for p in trav.cameras]
+            lights, environment = read_lights(trav.lights, t, xcache, self.images, self.diagnostics)
+            cameras = [read_camera(p, t, self.diagnostics) for p in trav.cameras]
         finally:
             self.images.finish()
-        if not scene.cameras:
+        if not cameras:
             if self._framing is None:  # framed once, at the first time evaluated, then kept still
                 self.diagnostics.warn(
                     f"the stage has no UsdGeom.Camera; using {FRAMING_CAMERA_NAME} that frames the scene bounds"
                 )
-                self._framing = framing_camera(*scene.bounds, self.info.up_axis)
-            scene.cameras = [self._framing]
+                self._framing = framing_camera(*_world_bounds(parts), self.info.up_axis)
+            cameras = [self._framing]
+        if self._origin is None:  # one local frame for every time of the source
+            self._origin = choose_origin(cameras[0])
+        scene = self._assemble(parts, t, self._origin)
+        scene.lights = [local_light(light, self._origin) for light in lights]
+        scene.environment = environment
+        scene.cameras = [local_camera(c, self._origin) for c in cameras]
         scene.images = list(self.images.images)
         scene.textures = list(self.images.textures)
         scene.materials = list(self._materials.materials)
@@ -330,9 +343,10 @@ class UsdSceneSource:
                 parts[i] = part
             if trav.lights_vary:
                 lights, environment = read_lights(trav.lights, t, xcache, self.images, self.diagnostics)
+                lights = [local_light(light, prev.origin) for light in lights]
             if any(trav.cameras_vary):
                 cameras = [
-                    read_camera(prim, t, self.diagnostics) if vary else old
+                    local_camera(read_camera(prim, t, self.diagnostics), prev.origin) if vary else old
                     for prim, vary, old in zip(trav.cameras, trav.cameras_vary, prev.cameras)
                 ]
         finally:
@@ -618,7 +632,8 @@ class UsdSceneSource:
         varname = lib.uv_primvar[textured[0]] if textured else lib.uv_primvar[mesh_index]
         return tri, varname, bool(textured)
 
-    def _assemble(self, parts: list[_Part], time: float) -> Scene:
+    def _assemble(self, parts: list[_Part], time: float, origin: np.ndarray) -> Scene:
+        """The parts' flat arrays, points in the frame of ``origin`` (``scene.local_frame``)."""
         n_points = sum(len(p.world.points) for p in parts)
         n_tris = sum(len(p.world.tri_points) for p in parts)
         points = np.empty((n_points, 3), dtype=np.float32)
@@ -631,7 +646,7 @@ class UsdSceneSource:
         for p in parts:
             w = p.world
             n, t = len(w.points), len(w.tri_points)
-            points[pb : pb + n] = w.points
+            points[pb : pb + n] = local_points(w.points, origin)
             indices[tb : tb + t] = w.tri_points + pb
             normals[tb : tb + t] = w.corner_normals
             uvs[tb : tb + t] = w.corner_uvs
@@ -656,7 +671,18 @@ class UsdSceneSource:
             time_codes_per_second=info.time_codes_per_second,
             meters_per_unit=info.meters_per_unit,
             up_axis=info.up_axis,
+            origin=origin,
         )
+
+
+def _world_bounds(parts: list[_Part]) -> tuple[np.ndarray, np.ndarray]:
+    """Axis-aligned world bounds (min, max) of the parts' points (zeros when empty)."""
+    pts = [p.world.points for p in parts if len(p.world.points)]
+    if not pts:
+        return np.zeros(3), np.zeros(3)
+    lo = np.min([np.min(p, axis=0) for p in pts], axis=0).astype(np.float64)
+    hi = np.max([np.max(p, axis=0) for p in pts], axis=0).astype(np.float64)
+    return lo, hi
 
 
 def load_scene(path: str | os.PathLike, time: float | None = None) -> Scene:

@@ -8,10 +8,12 @@ Reading is split in two so instances and static meshes are cheap:
   listed in ``holeIndices`` dropped, ``leftHanded`` winding flipped so that every
   triangle is counter-clockwise seen from its front.  Normals come from
   ``primvars:normals`` over ``normals`` (constant/uniform/vertex/varying/faceVarying,
-  indexed or not), else smooth area-weighted vertex normals are computed.
+  indexed or not), else smooth area-weighted vertex normals are computed; NaN/Inf
+  authored normals raise ``SceneError`` naming the prim (as NaN/Inf points do),
+  zero-length ones become the geometric (face) normal.
 * ``to_world`` applies one or many local-to-world matrices (instances) in a batch:
-  points by the matrix, normals by its inverse transpose, and the winding flipped
-  again where a matrix mirrors (negative determinant).
+  points by the matrix (in float64, kept so), normals by its inverse transpose, and
+  the winding flipped again where a matrix mirrors (negative determinant).
 
 UVs (``corner_uvs``) read the primvar a material asks for (``st`` by default), with
 any interpolation.  Everything is numpy; no Python loop runs per triangle.
@@ -24,6 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from pxr import Sdf, Usd, UsdGeom
 
+from ...errors import SceneError
 from .validate import Diagnostics, check_points, check_primvar, check_topology
 
 _UV_TYPES = {
@@ -254,9 +257,12 @@ def _read_primvar(
     diag: Diagnostics,
     prim: str,
     fallback: str,
+    finite_required: bool = False,
 ) -> np.ndarray | None:
     """A primvar's values at triangle corners (T, 3, width), or None (warned) when its
-    values, indices or element count do not fit the mesh."""
+    values, indices or element count do not fit the mesh.  NaN/Inf values fall back
+    too, unless ``finite_required`` (normals): then they raise ``SceneError`` naming
+    the file and the prim."""
     name = primvar.GetPrimvarName() if isinstance(primvar, UsdGeom.Primvar) else primvar.GetName()
     raw = primvar.Get(time)
     if raw is None:
@@ -276,6 +282,9 @@ def _read_primvar(
     ):
         return None
     if not np.isfinite(values).all():
+        bad = int(np.flatnonzero(~np.isfinite(values).all(axis=1))[0])
+        if finite_required:
+            raise SceneError(diag.path, f"{name} value {bad} is not finite ({values[bad].tolist()})", prim)
         diag.warn(f"{name} holds NaN/Inf values; using {fallback}", prim)
         return None
     return _to_corners(values, interpolation, topo)
@@ -288,12 +297,12 @@ def _authored_normals(
     if "primvars:normals" in authored:
         pv = UsdGeom.Primvar(prim.GetAttribute("primvars:normals"))
         if pv.HasAuthoredValue():
-            return _read_primvar(pv, pv.GetInterpolation(), time, topo, 3, diag, name, "computed normals")
+            return _read_primvar(pv, pv.GetInterpolation(), time, topo, 3, diag, name, "computed normals", True)
     if "normals" in authored:
         attr = prim.GetAttribute("normals")
         if attr.HasAuthoredValue():
             interpolation = UsdGeom.Mesh(prim).GetNormalsInterpolation()
-            return _read_primvar(attr, interpolation, time, topo, 3, diag, name, "computed normals")
+            return _read_primvar(attr, interpolation, time, topo, 3, diag, name, "computed normals", True)
     return None
 
 
@@ -424,8 +433,10 @@ def corner_uvs(
 class WorldMesh:
     """A mesh (or a batch of K instances of it) in world space.
 
-    ``points`` (K*N, 3); ``tri_points`` (K*T, 3) index into ``points``; corner
-    normals/uvs (K*T, 3, k).  ``instances`` is K.
+    ``points`` (K*N, 3), float64 when a matrix placed them (the loader takes them into
+    its local frame before rounding to float32, ``scene.local_frame``), the local
+    float32 points under an identity matrix; ``tri_points`` (K*T, 3) index into
+    ``points``; corner normals/uvs (K*T, 3, k).  ``instances`` is K.
     """
 
     points: np.ndarray
@@ -463,7 +474,7 @@ def to_world(local: LocalMesh, uvs: np.ndarray, matrices: np.ndarray) -> WorldMe
         nrm = np.where(flip[:, None, None, None], nrm[:, :, perm], nrm)
         uv = np.where(flip[:, None, None, None], uv[:, :, perm], uv)
     return WorldMesh(
-        points=pts.reshape(-1, 3).astype(np.float32),
+        points=pts.reshape(-1, 3),
         tri_points=tri.reshape(-1, 3).astype(np.int32),
         corner_normals=nrm.reshape(-1, 3, 3).astype(np.float32),
         corner_uvs=np.ascontiguousarray(uv.reshape(-1, 3, 2), dtype=np.float32),

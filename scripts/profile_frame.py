@@ -51,7 +51,7 @@ def main() -> None:
     rows = profile.rows(args.frames)
     frame_ms = statistics.median(f["frame_ms"] for f in frames)
     print(f"{args.scene}: --mode {args.mode}, {width}x{height}, {threads} threads, {args.frames} frames")
-    print("| kernel | launches/frame | wall ms/frame | cpu ms/frame | balance |")
+    print("| kernel | launches/frame | wall ms/frame | thread CPU ms/frame | balance |")
     print("|---|---|---|---|---|")
     for row in rows:
         print(

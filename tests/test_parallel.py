@@ -67,3 +67,40 @@ def test_run_propagates_exceptions(device: str) -> None:
         with pytest.raises(ValueError, match="piece 1 failed"):
             launcher.run(piece)
         assert launcher.run(lambda k, n: (k, n)) == [(0, 2), (1, 2)]
+
+
+def test_a_launch_profile_times_every_piece_by_kernel(device: str) -> None:
+    """Attached, the profile counts each launch once and times each of its pieces (one
+    per thread) under the kernel's name, and ``run`` pieces under theirs; detached, it
+    records nothing more."""
+    from warp_hybrid.launch_profile import LaunchProfile
+
+    out = wp.zeros((64, 32), dtype=wp.int32, device=device)
+    cols = wp.zeros((64, 32), dtype=wp.int32, device=device)
+    items = wp.zeros(100, dtype=wp.int32, device=device)
+
+    def busy(k: int, n: int) -> int:
+        return sum(range(20000 * (k + 1)))
+
+    with Launcher(device, 2) as launcher:
+        profile = LaunchProfile()
+        launcher.profile = profile
+        for _ in range(3):
+            launcher.launch_pixels(_count_pixels, 64, 32, [out, cols])
+        launcher.launch_items(_count_items, 100, [items])
+        assert launcher.run(busy) == [sum(range(20000)), sum(range(40000))]
+        launcher.profile = None
+        launcher.launch_items(_count_items, 100, [items])
+    pieces = {0} if wp.get_device(device).is_cuda else {0, 1}
+    pixels, listed = profile.kernels[_count_pixels.key], profile.kernels[_count_items.key]
+    assert (pixels.launches, listed.launches) == (3, 1)
+    assert set(pixels.piece_ms) == pieces and set(listed.piece_ms) == {0, 1}
+    run = profile.kernels["test_a_launch_profile_times_every_piece_by_kernel.<locals>.busy"]
+    assert run.launches == 1 and run.piece_ms[1] > 0.0 and run.cpu_ms > 0.0
+    assert 0.0 < run.balance <= 1.0
+    rows = profile.rows(frames=1)
+    assert [r["kernel"] for r in rows] == sorted(
+        profile.kernels, key=lambda n: -max(profile.kernels[n].piece_ms.values())
+    )
+    assert all(r["cpu_ms"] >= 0.0 for r in rows)
+    np.testing.assert_array_equal(items.numpy(), np.full(100, 2, np.int32))

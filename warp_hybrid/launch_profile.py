@@ -2,10 +2,13 @@
 each host thread spent, so every speed claim names the kernel it moved.
 
 While a ``LaunchProfile`` is attached, every piece a ``Launcher`` runs (one ``wp.launch``
-of a kernel on one host thread, or one ``run`` piece) is timed on its own thread with
-``time.perf_counter`` (after a device sync on CUDA, so the time covers the work).
-Profiling adds a clock reading per piece and nothing else; without a profile the
-launch layer reads no clock.
+of a kernel on one host thread, or one ``run`` piece) is timed on its own thread: wall
+time with ``time.perf_counter`` (after a device sync on CUDA, so it covers the work)
+and the thread's CPU time with ``time.thread_time`` (a CPU launch runs on the calling
+thread, so this is the kernel's own work, unaffected by other processes sharing the
+cores: the number to compare two versions by on a busy machine).  Profiling adds two
+clock readings per piece and nothing else; without a profile the launch layer reads no
+clock.
 """
 
 from __future__ import annotations
@@ -13,7 +16,9 @@ from __future__ import annotations
 import threading
 import time
 from collections import defaultdict
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 
 @dataclass
@@ -22,6 +27,7 @@ class KernelTimes:
 
     launches: int = 0
     ms: float = 0.0
+    cpu_ms: float = 0.0
     piece_ms: dict[int, float] = field(default_factory=lambda: defaultdict(float))
 
     @property
@@ -41,25 +47,28 @@ class LaunchProfile:
         self.kernels: dict[str, KernelTimes] = defaultdict(KernelTimes)
         self._lock = threading.Lock()
 
-    def record(self, name: str, piece: int, seconds: float) -> None:
-        """Add one piece of one launch of ``name`` (thread-safe)."""
+    def record(self, name: str, piece: int, seconds: float, cpu_seconds: float) -> None:
+        """Add one piece of one launch of ``name``: its wall and thread CPU seconds
+        (thread-safe)."""
         with self._lock:
             k = self.kernels[name]
             k.ms += seconds * 1000.0
+            k.cpu_ms += cpu_seconds * 1000.0
             k.piece_ms[piece] += seconds * 1000.0
             if piece == 0:
                 k.launches += 1
 
-    def timed(self, name: str, piece: int, fn, *args) -> object:
-        """Call ``fn(*args)`` and record its time as ``name``'s piece ``piece``."""
-        start = time.perf_counter()
+    def timed(self, name: str, piece: int, fn: Callable[..., Any], *args: Any) -> Any:
+        """Call ``fn(*args)`` on this thread and record it as ``name``'s piece ``piece``."""
+        start, cpu = time.perf_counter(), time.thread_time()
         result = fn(*args)
-        self.record(name, piece, time.perf_counter() - start)
+        self.record(name, piece, time.perf_counter() - start, time.thread_time() - cpu)
         return result
 
     def rows(self, frames: int = 1) -> list[dict[str, float | str]]:
         """Per kernel, slowest first: launches and ms per frame (the busiest thread's
-        ms: the wall time it adds), CPU ms over all threads, thread balance."""
+        wall ms: the time it adds to the frame), the threads' CPU ms summed, and the
+        thread balance (of the wall times)."""
         rows = []
         for name, k in self.kernels.items():
             busiest = max(k.piece_ms.values()) if k.piece_ms else 0.0
@@ -68,7 +77,7 @@ class LaunchProfile:
                     "kernel": name,
                     "launches": k.launches / frames,
                     "wall_ms": busiest / frames,
-                    "cpu_ms": k.ms / frames,
+                    "cpu_ms": k.cpu_ms / frames,
                     "balance": k.balance,
                 }
             )

@@ -136,8 +136,8 @@ class Launcher:
         if profile is None:
             wp.launch(kernel, dim=dim, inputs=inputs, device=self.device)
             return
-        start = time.perf_counter()
+        start, cpu = time.perf_counter(), time.thread_time()
         wp.launch(kernel, dim=dim, inputs=inputs, device=self.device)
         if self.device.is_cuda:
             wp.synchronize_device(self.device)
-        profile.record(kernel.key, piece, time.perf_counter() - start)
+        profile.record(kernel.key, piece, time.perf_counter() - start, time.thread_time() - cpu)

@@ -14,6 +14,7 @@ import json
 import sys
 from collections.abc import Callable, Sequence
 
+from gaze.atomic import check_output
 from gaze.errors import GazeError
 from gaze.screen import parse_screen_size
 from gaze.trace.data import DEFAULT_MIN_CONFIDENCE
@@ -128,9 +129,10 @@ def _cmd_convert(args: argparse.Namespace) -> int:
     write_trace(args.output, data)
     recording = "" if data.recording is None else f" recording {data.recording}"
     skipped = f"; skipped rows: {count_phrase(data.skipped)}" if data.skipped else ""
+    invalid = f"; invalid: {count_phrase(data.invalid)}" if data.invalid else ""
     print(
         f"{args.output}: {len(data)} samples ({int(data.valid.sum())} valid) over {data.duration:.3f} s "
-        f"from {data.format}{recording} {args.input}{skipped}"
+        f"from {data.format}{recording} {args.input}{skipped}{invalid}"
     )
     return 0
 
@@ -165,7 +167,11 @@ def _cmd_record(args: argparse.Namespace) -> int:
 
 
 def run_gaze(args: argparse.Namespace) -> int:
-    """Run the parsed ``gaze`` sub-command; returns the exit status (``GazeError`` propagates)."""
+    """Run the parsed ``gaze`` sub-command; returns the exit status (``GazeError`` propagates).
+    The command's output file is checked before any work (``gaze.atomic.check_output``)."""
+    for name in ("out", "output"):
+        if getattr(args, name, None):
+            check_output(getattr(args, name))
     commands = {"calibrate": _cmd_calibrate, "record": _cmd_record, "convert": _cmd_convert, "info": _cmd_info}
     return commands[args.gaze_command](args)
 

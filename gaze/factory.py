@@ -17,11 +17,9 @@ The query starts at the last ``?``, so a path may not contain ``?``.
 
 from __future__ import annotations
 
-import math
-
 from gaze.cursor import CursorSource
 from gaze.errors import GazeError
-from gaze.fixed import FixedSource
+from gaze.fixed import FixedSource, point_problem
 from gaze.screen import ScreenGeometry, parse_screen_size
 from gaze.source import GazeSource
 from gaze.trace.data import DEFAULT_MIN_CONFIDENCE
@@ -80,8 +78,9 @@ def _fixed(spec: str, argument: str) -> FixedSource:
         x, y = (float(p) for p in parts)
     except ValueError:
         raise _spec_error(spec, f"fixed needs X,Y (two numbers), got {argument!r}") from None
-    if not (math.isfinite(x) and math.isfinite(y) and 0.0 <= x <= 1.0 and 0.0 <= y <= 1.0):
-        raise _spec_error(spec, f"fixed point must lie in [0,1]^2 (normalised, origin top-left), got ({x:g}, {y:g})")
+    problem = point_problem(x, y)
+    if problem is not None:
+        raise _spec_error(spec, f"fixed {problem}")
     return FixedSource(x, y)
 
 

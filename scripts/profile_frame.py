@@ -61,7 +61,9 @@ def main() -> None:
     kernel_ms = sum(float(row["wall_ms"]) for row in rows)
     stages = {k: statistics.median(f["stages_ms"].get(k, 0.0) for f in frames) for k in frames[0]["stages_ms"]}
     print("\nstages (median ms): " + ", ".join(f"{k} {v:.1f}" for k, v in stages.items()))
-    print(f"frame {frame_ms:.1f} ms; kernels {kernel_ms:.1f} ms; host time outside kernels {frame_ms - kernel_ms:.1f} ms")
+    print(
+        f"frame {frame_ms:.1f} ms; kernels {kernel_ms:.1f} ms; host time outside kernels {frame_ms - kernel_ms:.1f} ms"
+    )
     if args.json:
         from warp_hybrid.output import write_json
 

@@ -79,3 +79,20 @@ def test_raster_mode_traces_nothing(device: str) -> None:
     assert "rays" not in frame.stats
     assert np.isnan(frame.visibility).all()
     assert not {"trace_shadow", "trace_secondary", "compose"} & set(frame.stats["stages_ms"])
+
+
+def test_one_exposure_whatever_the_window(device: str) -> None:
+    """Automatic exposure is metered on the raster layer (shaded everywhere), so a hybrid
+    frame's exposure is raster mode's, wherever the window is and however big: moving
+    the gaze over a still scene never changes it."""
+    scene = mirror_scene()
+
+    def ev(mode: str, window: FocusWindow | None = None) -> float:
+        settings = RenderSettings(width=W, height=H, device=device, mode=mode, antialias=False)
+        with Renderer(scene, settings) as r:
+            return r.render(scene.cameras[0], window).stats["exposure_ev"]
+
+    raster = ev("raster")
+    windows = [FocusWindow(gaze=g, fraction=f) for g, f in (((0.25, 0.5), 0.2), ((0.7, 0.3), 0.2), ((0.5, 0.5), 0.6))]
+    assert [ev("hybrid", w) for w in windows] == [raster] * 3
+    assert ev("full") != raster  # full ray tracing meters its own (shadowed) image

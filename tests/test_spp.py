@@ -322,11 +322,11 @@ def test_visibility_is_the_mean_over_the_samples(renders) -> None:
         ({"spp": 0}, "samples per pixel must be in 1..256"),
         ({"spp": -4}, "samples per pixel must be in 1..256"),
         ({"spp": 257}, "samples per pixel must be in 1..256"),
-        ({"spp": 2.0}, "samples per pixel must be an integer"),
-        ({"spp": True}, "samples per pixel must be an integer"),
+        ({"spp": 2.0}, "RenderSettings.spp must be an integer"),
+        ({"spp": True}, "RenderSettings.spp must be an integer"),
         ({"spp": 4, "mode": "hybrid"}, "need mode 'full'"),
         ({"spp": 4, "mode": "raster"}, "need mode 'full'"),
-        ({"spp": 4, "sample_seed": 0.5}, "sample seed must be an integer"),
+        ({"spp": 4, "sample_seed": 0.5}, "RenderSettings.sample_seed must be an integer"),
     ],
 )
 def test_bad_spp_is_rejected(changes: dict, message: str) -> None:

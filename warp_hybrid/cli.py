@@ -1,19 +1,27 @@
-"""Command line: ``warp-hybrid render|replay|bench|info|convert|gaze`` (also ``python -m warp_hybrid``).
+"""Command line: ``warp-hybrid render|replay|bench|info|convert|gaze|view`` (also ``python -m warp_hybrid``).
 
-Every error the package raises on purpose (bad file, bad setting) is printed as one
-line naming the file and the problem, with exit status 2; outputs are written
-atomically, so a failed run leaves no partial file behind.
+Every error the package raises on purpose (bad file, bad setting) and every bad
+argument is printed as one line naming the file and the problem, with exit status 2;
+what a command can check (output paths, settings, the gaze spec) is checked before the
+scene is loaded; a run's outputs are written as one set through the one atomic writer
+(``gaze.atomic``), so a failed run leaves no file behind; warnings are one ``warning:``
+line each, once; Ctrl-C is one line and exit status 130.
 """
 
 from __future__ import annotations
 
 import argparse
+import logging
 import math
+import re
 import sys
 import time
-from collections.abc import Sequence
+import warnings
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
+from typing import NoReturn
 
-import numpy as np
+from gaze.fixed import point_problem
 
 from .errors import RenderSettingsError, WarpHybridError
 from .focus import SHAPES
@@ -33,8 +41,19 @@ def parse_size(text: str) -> tuple[int, int]:
     return w, h
 
 
+def finite_float(text: str) -> float:
+    """argparse type: a finite number (``nan``, ``inf`` and overflowing text refused)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a number, got {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"must be a finite number, got {text!r}")
+    return value
+
+
 def parse_exposure(text: str) -> float | None:
-    """``auto`` or a number of stops."""
+    """``auto`` or a number of stops (its range is ``RenderSettings.validate``'s rule)."""
     if text == "auto":
         return None
     try:
@@ -52,22 +71,30 @@ def gaze_point(text: str) -> tuple[float, float] | None:
         x, y = float(parts[0]), float(parts[1])
     except ValueError as exc:
         raise RenderSettingsError(f"--gaze must be X,Y or a gaze source spec, got {text!r}") from exc
-    if not (np.isfinite(x) and np.isfinite(y)):
-        raise RenderSettingsError(f"--gaze must be finite, got {text!r}")
+    problem = point_problem(x, y)
+    if problem is not None:
+        raise RenderSettingsError(f"--gaze {text}: {problem}")
     return x, y
 
 
-def resolve_gaze(text: str, seconds: float) -> tuple[float, float]:
-    """The gaze point for a frame: ``X,Y`` as given, or a gaze source spec sampled at
-    the frame's time, ``seconds`` from the start of the stage's time range."""
+@contextmanager
+def frame_gaze(text: str) -> Iterator[Callable[[float], tuple[float, float]]]:
+    """The gaze point of a frame as a function of its time (``seconds`` from the start
+    of the stage's time range): ``X,Y`` as given, or a gaze source spec opened now, so a
+    bad one is refused before any work, and sampled at that time."""
     point = gaze_point(text)
     if point is not None:
-        return point
+        yield lambda seconds: point
+        return
     from gaze.factory import open_source
 
     with open_source(text) as source:
-        sample = source.sample(seconds)
-    return float(sample.x), float(sample.y)
+
+        def sample(seconds: float) -> tuple[float, float]:
+            s = source.sample(seconds)
+            return float(s.x), float(s.y)
+
+        yield sample
 
 
 def _add_frame_arguments(p: argparse.ArgumentParser, window_help: str, window_default: float | None) -> None:
@@ -89,7 +116,7 @@ def _add_frame_arguments(p: argparse.ArgumentParser, window_help: str, window_de
         default=defaults.mode,
         help="raster: deferred shading only; full: every pixel ray traced; hybrid (default): ray traced in the focus window",
     )
-    p.add_argument("--window", type=float, default=window_default, help=window_help)
+    p.add_argument("--window", type=finite_float, default=window_default, help=window_help)
     p.add_argument(
         "--window-shape",
         choices=SHAPES,
@@ -98,7 +125,7 @@ def _add_frame_arguments(p: argparse.ArgumentParser, window_help: str, window_de
     )
     p.add_argument(
         "--feather",
-        type=float,
+        type=finite_float,
         default=defaults.feather_px,
         help=f"blend band inside the window edge, pixels (default {defaults.feather_px:g})",
     )
@@ -148,21 +175,21 @@ def _add_budget_arguments(p: argparse.ArgumentParser, fps_default: float | None)
     defaults = LoopSettings()
     p.add_argument(
         "--fps",
-        type=float,
+        type=finite_float,
         default=fps_default,
         help="target frame rate: the budget the focus window adapts to"
         + (f" (default {fps_default:g})" if fps_default is not None else " (default: no budget)"),
     )
-    p.add_argument("--budget-ms", type=float, default=None, help="frame-time budget in ms (default 1000 / fps)")
+    p.add_argument("--budget-ms", type=finite_float, default=None, help="frame-time budget in ms (default 1000 / fps)")
     p.add_argument(
         "--min-window",
-        type=float,
+        type=finite_float,
         default=defaults.min_window,
         help=f"smallest adaptive window, share of the screen (default {defaults.min_window:g})",
     )
     p.add_argument(
         "--max-window",
-        type=float,
+        type=finite_float,
         default=defaults.max_window,
         help=f"largest adaptive window, share of the screen (default {defaults.max_window:g})",
     )
@@ -221,7 +248,7 @@ def _add_render_parser(sub: argparse._SubParsersAction) -> None:
         f"focus window area as a fraction of the screen (0..1, default {defaults.window_fraction:g})",
         defaults.window_fraction,
     )
-    p.add_argument("--time", type=float, default=None, help="USD time code (default: the stage's start)")
+    p.add_argument("--time", type=finite_float, default=None, help="USD time code (default: the stage's start)")
     p.add_argument("--aov-dir", default=None, help="write depth/position/normal/albedo/color .npy files here")
     p.add_argument("--stats-json", default=None, help="write per-stage timings and counts as JSON here")
     p.add_argument(
@@ -240,20 +267,24 @@ def _add_render_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def _cmd_render(args: argparse.Namespace) -> int:
-    from .output import write_aovs, write_json, write_png
+    from .output import Outputs, check_image_path, check_outputs
     from .renderer import Renderer
     from .runtime import init_warp
     from .scene.open import open_scene_source
     from .scene.usd.camera import select_camera
 
-    init_warp()
-    t0 = time.perf_counter()
-    source = open_scene_source(args.scene)
-    scene = source.scene_at(args.time)
-    load_ms = (time.perf_counter() - t0) * 1000.0
-    camera = select_camera(scene.cameras, args.camera, source=str(args.scene))
+    check_image_path(args.output)  # everything a run can check, before any work
+    check_outputs({"-o": args.output, "--stats-json": args.stats_json}, {"--aov-dir": args.aov_dir})
     settings = _render_settings(args)
-    gaze = resolve_gaze(args.gaze, source.info.seconds(scene.time))
+    settings.validate()
+    with frame_gaze(args.gaze) as gaze_at:
+        init_warp()
+        t0 = time.perf_counter()
+        source = open_scene_source(args.scene)
+        scene = source.scene_at(args.time)
+        load_ms = (time.perf_counter() - t0) * 1000.0
+        camera = select_camera(scene.cameras, args.camera, source=str(args.scene))
+        gaze = gaze_at(source.info.seconds(scene.time))
     if args.fps is not None or args.budget_ms is not None:
         frame = _render_on_budget(args, source, settings, gaze)
     else:
@@ -261,13 +292,12 @@ def _cmd_render(args: argparse.Namespace) -> int:
             renderer.warm_up(camera)
             frame = renderer.render(camera, renderer.default_window(gaze))
     frame.stats["setup_ms"] = {"load": load_ms, **frame.stats["setup_ms"]}
-    write_png(args.output, frame.image)
-    if args.aov_dir:
-        write_aovs(args.aov_dir, frame.aovs())
-    if args.stats_json:
-        write_json(args.stats_json, frame.stats)
-    for w in scene.warnings:
-        print(f"warning: {w}", file=sys.stderr)
+    with Outputs() as outputs:  # the run's files as one set: all or none
+        outputs.add_png(args.output, frame.image)
+        if args.aov_dir:
+            outputs.add_aovs(args.aov_dir, frame.aovs())
+        if args.stats_json:
+            outputs.add_json(args.stats_json, frame.stats)
     stages = ", ".join(f"{k} {v:.1f}" for k, v in frame.stats["stages_ms"].items())
     print(
         f"{args.output}: {settings.width}x{settings.height}, {scene.triangle_count} triangles, frame {frame.stats['frame_ms']:.1f} ms ({stages})"
@@ -322,11 +352,11 @@ def _add_replay_parser(sub: argparse._SubParsersAction) -> None:
     length.add_argument("--frames", type=int, default=None, help="frames to render")
     length.add_argument(
         "--duration",
-        type=float,
+        type=finite_float,
         default=None,
         help="seconds to render (default: the stage's time range, else the gaze trace's length, else 5)",
     )
-    p.add_argument("--start", type=float, default=0.0, help="first frame's time, seconds from the stage's start")
+    p.add_argument("--start", type=finite_float, default=0.0, help="first frame's time, seconds from the stage's start")
     _add_frame_arguments(
         p,
         "a fixed focus window (share of the screen) instead of the budget controller's (default: adaptive)",
@@ -386,9 +416,16 @@ def _cmd_replay(args: argparse.Namespace) -> int:
     if args.warm_up < 0:
         raise RenderSettingsError(f"--warm-up must be >= 0, got {args.warm_up}")
     _one_sample(args, "replay")
+    from .output import check_outputs
+
+    check_outputs(
+        {"--out": args.out, "--stats": args.stats, "--summary-json": args.summary_json, "--error-csv": args.error_csv},
+        {"--frames-dir": args.frames_dir},
+    )
+    settings = _render_settings(args)
+    settings.validate()
     init_warp()
     source = open_scene_source(args.scene)
-    settings = _render_settings(args)
     loop_settings = _loop_settings(args, args.start, adaptive=args.window is None)
     outputs = ReplayOutputs(
         video=Path(args.out) if args.out else None,
@@ -403,8 +440,6 @@ def _cmd_replay(args: argparse.Namespace) -> int:
         frames = _replay_frames(args, source, gaze_source)
         with AdaptiveLoop(source, settings, loop_settings, camera_path=args.camera) as loop:
             result = replay(loop, gaze_source, frames, outputs, warm_up=args.warm_up)
-    for w in source.warnings:
-        print(f"warning: {w}", file=sys.stderr)
     if result.gaze_failure:
         print(
             f"warning: the gaze source failed mid-replay ({result.gaze_failure}); held its last point", file=sys.stderr
@@ -470,7 +505,7 @@ def _add_bench_parser(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--fovea-fraction",
-        type=float,
+        type=finite_float,
         default=0.1,
         help="the window at the gaze whose FLIP is reported as inside (default 0.1)",
     )
@@ -508,6 +543,9 @@ def _cmd_bench(args: argparse.Namespace) -> int:
         exposure_ev=args.exposure,
     )
     base.validate()
+    from .output import check_outputs
+
+    check_outputs({}, {"--out": args.out})
     init_warp()
     results, notes = {}, {}
     with Progress(len(configs) * len(args.scenes), unit="config", budgeted=False) as bar:
@@ -535,7 +573,7 @@ def _cmd_bench(args: argparse.Namespace) -> int:
 def _add_info_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("info", help="summarise a scene: counts, lights, cameras, time range, effects needed")
     p.add_argument("scene")
-    p.add_argument("--time", type=float, default=None)
+    p.add_argument("--time", type=finite_float, default=None)
     p.add_argument("--json", action="store_true", help="print JSON instead of text")
 
 
@@ -559,18 +597,118 @@ def _add_convert_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def _cmd_convert(args: argparse.Namespace) -> int:
+    from .output import check_outputs
     from .scene.authoring.convert import convert_mesh_file
+    from .scene.authoring.writer import check_usd_path
 
+    check_usd_path(args.output)
+    check_outputs({"OUT": args.output})
     convert_mesh_file(args.input, args.output)
     print(f"{args.output}: written")
     return 0
 
 
+def _add_view_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("view", help="interactive viewer: a local web page where the cursor (or the webcam) is the gaze")
+    p.add_argument("scene", help="USD file (.usd/.usda/.usdc/.usdz) or a mesh file trimesh reads")
+    p.add_argument("--port", type=int, default=8000, help="TCP port (default 8000)")
+    p.add_argument(
+        "--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1; any other is warned about)"
+    )
+    p.add_argument("--gaze", default="cursor", help="cursor (default), webcam:INDEX[?calibration=FILE] or trace:PATH")
+    _add_budget_arguments(p, LoopSettings().fps)
+    _add_frame_arguments(
+        p, "a fixed focus window (share of the screen) instead of the budget controller's (default: adaptive)", None
+    )
+    p.add_argument("--jpeg-quality", type=int, default=80, help="JPEG quality of the frames, 1..100 (default 80)")
+    p.add_argument("--record-dir", default="recordings", help="where recordings go (default recordings/)")
+    p.add_argument(
+        "--calibration-out",
+        default="calibration.json",
+        help="where the webcam calibration made on the page is saved (default calibration.json)",
+    )
+
+
+def _cmd_view(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from gaze.factory import split_spec
+
+    from .runtime import init_warp
+    from .scene.open import open_scene_source
+    from .viewer.render_thread import ViewSettings
+    from .viewer.serve import build_viewer, serve
+
+    if not 1 <= args.jpeg_quality <= 100:
+        raise RenderSettingsError(f"--jpeg-quality must lie in 1..100, got {args.jpeg_quality}")
+    if split_spec(args.gaze)[0] == "fixed":
+        raise RenderSettingsError(f"view --gaze must be cursor, webcam:... or trace:..., got {args.gaze!r}")
+    _one_sample(args, "view (the adaptive loop)")
+    init_warp()
+    source = open_scene_source(args.scene)
+    settings = ViewSettings(
+        render=_render_settings(args),
+        loop=_loop_settings(args, 0.0, adaptive=args.window is None),
+        camera_path=args.camera,
+        gaze=args.gaze,
+        jpeg_quality=args.jpeg_quality,
+        record_dir=Path(args.record_dir),
+        calibration_file=Path(args.calibration_out),
+    )
+    serve(build_viewer(source, settings), args.host, args.port)
+    return 0
+
+
+class OneLineParser(argparse.ArgumentParser):
+    """argparse with this program's error rule: a bad argument is one line (naming the
+    option and the problem, pointing at ``--help``) and exit status 2; and a value that
+    starts with ``-`` and a digit (``--size -5x10``) is a value, not an unknown option,
+    so it gets its option's own message.  Sub-commands' parsers are of this class too."""
+
+    def __init__(self, *args: object, **kwargs: object) -> None:
+        super().__init__(*args, **kwargs)  # type: ignore[arg-type]
+        self._negative_number_matcher = re.compile(r"^-\d")
+
+    def error(self, message: str) -> NoReturn:
+        """Print ``error: PROG: MESSAGE (PROG --help for usage)`` and exit with status 2."""
+        self.exit(2, f"error: {self.prog}: {message} (see {self.prog} --help)\n")
+
+
+class _WarningLines(logging.Handler):
+    """Prints each warning the package logs as one ``warning:`` line on stderr."""
+
+    def emit(self, record: logging.LogRecord) -> None:
+        print(f"warning: {_clean(record.getMessage())}", file=sys.stderr)
+
+
+def _clean(text: str) -> str:
+    """A message as printed: pxr's mangled namespaces dropped."""
+    from .scene.usd.pxr_text import strip_namespaces
+
+    return strip_namespaces(text)
+
+
+@contextmanager
+def _report_warnings() -> Iterator[None]:
+    """While a command runs, print the package's logged warnings (each logged once per
+    scene) and Python warnings as one ``warning:`` line each, once: the commands do not
+    print them again."""
+    logger = logging.getLogger("warp_hybrid")
+    handler = _WarningLines(logging.WARNING)
+    logger.addHandler(handler)
+    try:
+        with warnings.catch_warnings():
+            warnings.showwarning = _warning_line
+            yield
+    finally:
+        logger.removeHandler(handler)
+
+
 def build_parser() -> argparse.ArgumentParser:
-    """The full argument parser (render, replay, bench, info, convert, gaze)."""
+    """The full argument parser (render, replay, bench, info, convert, gaze, view)."""
     from gaze.cli import add_gaze_parser
 
-    parser = argparse.ArgumentParser(prog="warp-hybrid", description=__doc__.splitlines()[0])
+    parser = OneLineParser(prog="warp-hybrid", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
     _add_render_parser(sub)
     _add_replay_parser(sub)
@@ -578,6 +716,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_info_parser(sub)
     _add_convert_parser(sub)
     add_gaze_parser(sub)
+    _add_view_parser(sub)
     return parser
 
 
@@ -587,17 +726,30 @@ def main(argv: Sequence[str] | None = None) -> int:
     from gaze.errors import GazeError
 
     parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # --help, or a bad argument (already printed as one line)
+        return exc.code if isinstance(exc.code, int) else 2
     commands = {
         "render": _cmd_render,
         "replay": _cmd_replay,
         "bench": _cmd_bench,
         "info": _cmd_info,
         "convert": _cmd_convert,
+        "view": _cmd_view,
         "gaze": run_gaze,
     }
     try:
-        return commands[args.command](args)
+        with _report_warnings():
+            return commands[args.command](args)
     except (WarpHybridError, GazeError) as exc:
-        print(f"error: {exc}", file=sys.stderr)
+        print(f"error: {_clean(str(exc))}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        print(f"interrupted: warp-hybrid {args.command} stopped; no file is left half-written", file=sys.stderr)
+        return 130
+
+
+def _warning_line(message: Warning | str, *_: object, **__: object) -> None:
+    """``warnings.showwarning`` for the command line: one ``warning:`` line."""
+    print(f"warning: {_clean(str(message))}", file=sys.stderr)

@@ -24,3 +24,8 @@ class SceneError(WarpHybridError):
 
 class RenderSettingsError(WarpHybridError):
     """Settings that cannot be honoured (bad size, unknown camera, bad device...)."""
+
+
+class ArgumentTypeError(RenderSettingsError, TypeError):
+    """A library argument of the wrong type; the message names the argument (a
+    ``TypeError`` too, so callers that catch that still do)."""

@@ -8,7 +8,7 @@ There are no module-level globals; the clock is injected.
 
 A frame runs the mode's passes in order (``core.passes``), each on the frame's
 ``FrameContext``: primary visibility (raster or ray cast) -> focus region (hybrid and
-full) -> deferred lighting (raster and hybrid; it skips the window's interior) ->
+full) -> deferred lighting (raster and hybrid; every pixel) ->
 tracing (hybrid and full; in hybrid mode under the budget guard, ``trace.guard``, when the
 frame has a deadline) -> compose (hybrid) -> post.  A supersampled frame (``spp`` > 1, full
 mode; ``supersample``) runs the passes before the post once per sample, each at its own
@@ -19,6 +19,7 @@ centres and posts the average.
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -29,13 +30,16 @@ from .compose import Compositor
 from .core.camera import make_camera_gpu
 from .core.gbuffer import GBuffer
 from .core.passes import FrameBuffers, FrameContext, RenderPass
-from .errors import RenderSettingsError
+from .errors import ArgumentTypeError, RenderSettingsError
+from .field_types import check_field_types
 from .focus import SHAPES, FocusRegionBuilder, FocusWindow
 from .lighting.deferred import DeferredLighting
-from .parallel import Launcher
+from .memory import check_memory
+from .parallel import Launcher, default_thread_count
 from .post.postprocess import TONEMAPS, PostProcess
 from .primary import PrimaryVisibility, Rasterizer, RayCaster
 from .runtime import resolve_device
+from .scene.camera_check import check_camera
 from .scene.device import DeviceScene
 from .scene.model import Camera, Scene
 from .supersample import MAX_SPP, SampleAccumulator, sample_offsets, sample_step
@@ -46,6 +50,9 @@ from .trace.guard import GuardedTrace
 
 PRIMARY_PATHS = ("raster", "raycast")
 MODES = ("raster", "full", "hybrid")
+#: The largest fixed exposure, in stops either way: 2^64 scales any radiance the scene
+#: holds without overflowing float32 (2^1000000 is not even a float64).
+MAX_EXPOSURE_EV = 64.0
 
 
 @dataclass
@@ -83,7 +90,9 @@ class RenderSettings:
     sample_seed: int = 0
 
     def validate(self) -> None:
-        """Raise ``RenderSettingsError`` for values that cannot be honoured."""
+        """Raise ``RenderSettingsError`` for values that cannot be honoured (an
+        ``ArgumentTypeError`` naming the field for a value of the wrong type)."""
+        check_field_types(self)
         if not (1 <= self.width <= 16384 and 1 <= self.height <= 16384):
             raise RenderSettingsError(f"image size {self.width}x{self.height} is out of range (1..16384)")
         if self.mode not in MODES:
@@ -94,8 +103,13 @@ class RenderSettings:
             raise RenderSettingsError(
                 f"window fraction must be in [0, 1] (share of the screen area), got {self.window_fraction}"
             )
-        if not self.feather_px >= 0.0:
-            raise RenderSettingsError(f"feather must be >= 0 pixels, got {self.feather_px}")
+        if not 0.0 <= self.feather_px < math.inf:
+            raise RenderSettingsError(f"feather must be >= 0 pixels and finite, got {self.feather_px}")
+        if self.exposure_ev is not None and not -MAX_EXPOSURE_EV <= self.exposure_ev <= MAX_EXPOSURE_EV:
+            raise RenderSettingsError(
+                f"exposure must be 'auto' (None) or a number of stops in [-{MAX_EXPOSURE_EV:g}, {MAX_EXPOSURE_EV:g}], "
+                f"got {self.exposure_ev}"
+            )
         if self.max_depth < 0:
             raise RenderSettingsError(f"max depth must be >= 0, got {self.max_depth}")
         if self.shadow_samples < 1:
@@ -111,14 +125,10 @@ class RenderSettings:
             ("fovea_spp", "window samples per pixel", "hybrid"),
         ):
             value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-                raise RenderSettingsError(f"{what} must be an integer, got {value!r}")
             if not 1 <= value <= MAX_SPP:
                 raise RenderSettingsError(f"{what} must be in 1..{MAX_SPP}, got {value}")
             if value > 1 and self.mode != mode:
                 raise RenderSettingsError(f"{value} {what} need mode {mode!r}, got mode {self.mode!r}")
-        if isinstance(self.sample_seed, bool) or not isinstance(self.sample_seed, (int, np.integer)):
-            raise RenderSettingsError(f"the sample seed must be an integer, got {self.sample_seed!r}")
 
 
 @dataclass
@@ -186,12 +196,19 @@ class Renderer:
     ) -> None:
         """Upload ``scene`` and build its BVH, or use a ``DeviceScene`` the caller owns
         (on the settings' device); ``clock`` times every stage."""
+        if settings is not None and not isinstance(settings, RenderSettings):
+            raise ArgumentTypeError(f"settings must be a RenderSettings or None, got {type(settings).__name__}")
+        if not isinstance(scene, (Scene, DeviceScene)):
+            raise ArgumentTypeError(f"scene must be a Scene or a DeviceScene, got {type(scene).__name__} {scene!r}")
         self.settings = settings or RenderSettings()
         self.settings.validate()
         self.clock = clock
         self.device = resolve_device(self.settings.device)
         self._sync = (lambda: wp.synchronize_device(self.device)) if self.device.is_cuda else None
         self.setup_ms: dict[str, float] = {}
+        host_scene = scene.scene if isinstance(scene, DeviceScene) else scene
+        upload = scene if isinstance(scene, Scene) else None
+        self._check_memory(self.settings.width, self.settings.height, len(host_scene.lights), upload)
         if isinstance(scene, DeviceScene):
             if scene.device != self.device:
                 raise RenderSettingsError(f"the device scene is on {scene.device.alias}, not {self.device.alias}")
@@ -205,6 +222,13 @@ class Renderer:
         self.buffers = self._make_buffers(self.settings.width, self.settings.height)
         self._accumulator = SampleAccumulator(self.launcher)
         self._set_scene()
+
+    def _check_memory(self, width: int, height: int, lights: int, upload: Scene | None) -> None:
+        """Refuse, before allocating, a size whose memory estimate does not fit the
+        device (``memory.check_memory``; ``upload``: the scene still to upload)."""
+        s = self.settings
+        threads = s.threads if s.threads is not None else default_thread_count(self.device)
+        check_memory(width, height, lights, threads, self.device, upload, s.spp, s.fovea_spp)
 
     def _make_passes(self) -> list[RenderPass]:
         """The mode's passes, in frame order."""
@@ -224,19 +248,22 @@ class Renderer:
                 if s.fovea_spp > 1:
                     trace: RenderPass = FoveaSampler(tracer, s.fovea_spp, s.sample_seed)
                 else:
-                    trace = GuardedTrace(tracer, focus, lighting)
+                    trace = GuardedTrace(tracer, focus)
                 passes += [lighting, trace, Compositor(self.launcher)]
         passes.append(PostProcess(self.launcher, s.exposure_ev, s.tonemap, s.antialias))
         return passes
 
     def _make_buffers(self, width: int, height: int) -> FrameBuffers:
         """Frame buffers for this size and the scene's lights; ``color`` is the layer
-        the mode shows (raster, traced, or the composed one)."""
+        the mode shows (raster, traced, or the composed one), ``metered`` the one
+        automatic exposure is metered on (the raster layer in raster and hybrid modes,
+        so a hybrid frame's exposure does not depend on its window)."""
         buffers = FrameBuffers(width, height, len(self.scene.lights), self.device)
         if self.settings.mode == "raster":
             buffers.color = buffers.raster_color
         elif self.settings.mode == "full":
             buffers.color = buffers.traced_color
+        buffers.metered = buffers.traced_color if self.settings.mode == "full" else buffers.raster_color
         return buffers
 
     def _set_scene(self) -> None:
@@ -275,8 +302,14 @@ class Renderer:
 
     def resize(self, width: int, height: int) -> None:
         """Render ``width`` x ``height`` frames from now on (the scene and its BVH stay)."""
+        before = (self.settings.width, self.settings.height)
         self.settings.width, self.settings.height = width, height
-        self.settings.validate()
+        try:
+            self.settings.validate()
+            self._check_memory(width, height, len(self.scene.lights), None)
+        except RenderSettingsError:  # refused: the renderer keeps its size
+            self.settings.width, self.settings.height = before
+            raise
         for p in self.passes:
             p.resize(width, height)
         self.buffers = self._make_buffers(width, height)
@@ -334,6 +367,9 @@ class Renderer:
         self, camera: Camera, window: FocusWindow | None, trace_deadline: float | None, host_copies: bool, spp: int
     ) -> Frame:
         """``render`` with ``spp`` samples per pixel."""
+        check_camera(camera)
+        if window is not None and not isinstance(window, FocusWindow):
+            raise ArgumentTypeError(f"window must be a FocusWindow or None, got {type(window).__name__} {window!r}")
         s = self.settings
         if trace_deadline is not None and s.fovea_spp > 1:
             raise RenderSettingsError(

@@ -16,6 +16,7 @@ DEFAULT_MIN_CONFIDENCE = 0.6
 OUTSIDE_MARGIN = 0.25
 #: Invalid-sample reasons that every format shares (format flags come first).
 NO_POINT = "no gaze point"
+BAD_CONFIDENCE = "confidence not a number in [0, 1]"
 OUTSIDE = "outside the screen"
 FLAGGED = "flagged invalid"
 
@@ -64,15 +65,18 @@ def invalid_reasons(
     """Which samples are valid, and the invalid ones counted by their first reason.
 
     In order: the file's own ``flags`` (reason -> mask), no point (empty cells), a
-    confidence below ``min_confidence``, a point more than ``OUTSIDE_MARGIN`` of the
-    screen beyond an edge.
+    confidence that is not a number in [0, 1] (NaN, infinite, negative or above 1: a
+    broken export, never trusted), a confidence below ``min_confidence``, a point more
+    than ``OUTSIDE_MARGIN`` of the screen beyond an edge.
     """
     with np.errstate(invalid="ignore"):
         outside = (np.abs(x - 0.5) > 0.5 + OUTSIDE_MARGIN) | (np.abs(y - 0.5) > 0.5 + OUTSIDE_MARGIN)
-        low = ~(np.nan_to_num(confidence, nan=-1.0) >= min_confidence)
+        bad = ~((confidence >= 0.0) & (confidence <= 1.0))
+        low = ~(confidence >= min_confidence)
     checks = [
         *flags.items(),
         (NO_POINT, ~(np.isfinite(x) & np.isfinite(y))),
+        (BAD_CONFIDENCE, bad),
         (f"below confidence {min_confidence:g}", low),
         (OUTSIDE, outside),
     ]

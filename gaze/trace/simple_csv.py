@@ -3,9 +3,10 @@
 ``t`` is in seconds (or in the unit its header names: ``t [ms]``); ``x, y`` are
 normalised with the origin at the top-left, or pixels of a screen whose size the caller
 gives (whenever the caller gives one, and required when the header says ``x [px]``).
-Empty ``x``/``y`` cells mark invalid samples (blinks, track loss); ``confidence``
-defaults to 1 and, as for every format, a sample below the reader's minimum confidence
-(default 0.6) is invalid.  The writer always
+Empty ``x``/``y`` cells mark invalid samples (blinks, track loss); an empty or missing
+``confidence`` is 1, and, as for every format, a sample whose confidence is not a number
+in [0, 1] (``nan``, ``inf``, ``7``) or is below the reader's minimum (default 0.6) is
+invalid, counted by its reason.  The writer always
 emits the header ``t,x,y,confidence`` and writes invalid rows as ``t,,,0``.
 """
 
@@ -56,8 +57,10 @@ def simple_samples(text: TraceText, screen_px: tuple[int, int] | None) -> Sample
             raise GazeError(table.path, f"line {int(line)}: {len(row)} cells but the header names {width} columns")
     t = table.times(0, time_unit(table.path, table.header[0], default="s"))
     x, y = table.floats(1), table.floats(2)
-    confidence = table.floats(3) if width == 4 else np.ones_like(t)
-    confidence = np.where(np.isnan(confidence), 1.0, confidence)
+    confidence = np.ones_like(t)
+    if width == 4:  # an empty cell means full confidence; a written NaN is a bad value
+        given = np.array([bool(cell) for cell in table.cells(3)], dtype=bool)
+        confidence = np.where(given, table.floats(3), 1.0)
     notes: dict[str, str] = {}
     if screen_px is not None or any((split_unit(h)[1] or "").lower() == "px" for h in table.header[1:3]):
         size, source = pixel_size(table.path, screen_px, None, "the screen")

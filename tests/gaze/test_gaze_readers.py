@@ -163,6 +163,6 @@ def test_writer_refuses_what_it_could_not_read_back(tmp_path: Path) -> None:
         write_simple(out, np.array([0.0, 0.2, 0.1]), ones, ones, ones, ones.astype(bool))
     with pytest.raises(GazeError, match=r"bad\.csv.*valid sample 1"):
         write_simple(out, np.arange(3.0), np.array([0.1, np.nan, 0.2]), ones, ones, ones.astype(bool))
-    with pytest.raises(GazeError, match="output folder"):
-        write_simple(tmp_path / "missing" / "x.csv", np.arange(3.0), ones, ones, ones, ones.astype(bool))
     assert list(tmp_path.iterdir()) == []
+    write_simple(tmp_path / "missing" / "x.csv", np.arange(3.0), ones, ones, ones, ones.astype(bool))
+    assert [p.name for p in (tmp_path / "missing").iterdir()] == ["x.csv"]  # one rule: missing folders are made

@@ -78,7 +78,7 @@ def test_a_supersampled_window_takes_no_deadline(device: str) -> None:
     "changes, message",
     [
         ({"fovea_spp": 0}, "window samples per pixel must be in 1..256"),
-        ({"fovea_spp": 3.0}, "window samples per pixel must be an integer"),
+        ({"fovea_spp": 3.0}, "RenderSettings.fovea_spp must be an integer"),
         ({"fovea_spp": 4, "mode": "full"}, "need mode 'hybrid'"),
         ({"fovea_spp": 4, "mode": "raster"}, "need mode 'hybrid'"),
     ],

@@ -69,7 +69,7 @@ def test_a_passed_deadline_traces_the_innermost_ring_and_feathers_there(device: 
     outside = dist < -1e-3
     assert inner.sum() > 20 and outside.sum() > 5000
     np.testing.assert_array_equal(frame.color[inner], full.color[inner])
-    # outside the traced ring the raster layer shows, refilled inside the planned window
+    # outside the traced ring the raster layer shows (it is shaded everywhere)
     np.testing.assert_array_equal(frame.color[outside], raster.color[outside])
     assert np.isnan(frame.visibility[outside]).all()
 

@@ -30,8 +30,9 @@ if TYPE_CHECKING:
 class FrameBuffers:
     """The per-pixel buffers a frame is drawn into, reused across frames: the G-buffer,
     the raster and traced radiance layers, the composed ``color`` (linear radiance
-    before exposure) and the per-light ``visibility`` AOV (transmittance luminance,
-    NaN where not traced)."""
+    before exposure), ``metered`` (the layer automatic exposure is metered on: ``color``
+    unless the renderer says otherwise) and the per-light ``visibility`` AOV
+    (transmittance luminance, NaN where not traced)."""
 
     def __init__(self, width: int, height: int, lights: int, device: wp.context.Device) -> None:
         """Allocate every buffer for ``width`` x ``height`` and ``lights`` lights."""
@@ -43,6 +44,7 @@ class FrameBuffers:
         self.raster_color = wp.zeros(shape, dtype=wp.vec3, device=device)
         self.traced_color = wp.zeros(shape, dtype=wp.vec3, device=device)
         self.color = wp.zeros(shape, dtype=wp.vec3, device=device)
+        self.metered = self.color
         self.visibility = wp.full((height, width, lights), value=float("nan"), dtype=wp.float32, device=device)
 
     def fits(self, width: int, height: int, lights: int) -> bool:

@@ -12,6 +12,7 @@ FLAG_SPECULAR_WORKFLOW = wp.constant(1)
 FLAG_TRANSMISSIVE = wp.constant(2)
 FLAG_REFRACTIVE = wp.constant(4)
 FLAG_CUTOUT = wp.constant(8)
+FLAG_VERTEX_COLOR = wp.constant(16)  # diffuse colour from ``SceneGPU.corner_colors``
 
 # Longest mip chain kept (level 15 of a 32768-texel image is 1 texel wide).
 MAX_MIP_LEVELS = 16
@@ -48,7 +49,9 @@ class TextureGPU:
     ``offset``, ``width`` and ``height`` describe mip level 0 (the image itself);
     ``levels`` counts its mip chain (1 when none was built), level L being
     ``max(1, width >> L)`` x ``max(1, height >> L)`` texels at ``level_offsets[L]``
-    (see ``scene/device/mipmaps.py``; entries past the chain repeat its last level)."""
+    (see ``scene/device/mipmaps.py``; entries past the chain repeat its last level).
+    ``uv_u``, ``uv_v``: the rows of the uv transform (``TextureBinding.uv_transform``):
+    ``u' = dot(uv_u, (u, v, 1))``, ``v' = dot(uv_v, (u, v, 1))``."""
 
     offset: int
     width: int
@@ -59,6 +62,8 @@ class TextureGPU:
     wrap_t: int
     scale: wp.vec4
     bias: wp.vec4
+    uv_u: wp.vec3
+    uv_v: wp.vec3
 
 
 @wp.struct
@@ -97,6 +102,7 @@ class SceneGPU:
     indices: wp.array(dtype=wp.int32)
     corner_normals: wp.array(dtype=wp.vec3)
     corner_uvs: wp.array(dtype=wp.vec2)
+    corner_colors: wp.array(dtype=wp.vec3)
     triangle_material: wp.array(dtype=wp.int32)
     materials: wp.array(dtype=MaterialGPU)
     textures: wp.array(dtype=TextureGPU)

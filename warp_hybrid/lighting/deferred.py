@@ -5,10 +5,10 @@ Per pixel: ``shading.shade_surface`` with the sum over the scene's lights of
 ``direct_light``, i.e. emission + direct diffuse/specular + the dome's SH diffuse and
 prefiltered glossy light (+ the raster approximation for transmissive materials).
 Background pixels get the dome's radiance along the camera ray (black without a dome).
-In hybrid mode the pixels of the focus window's interior (weight 1) are skipped: the
-traced layer replaces them exactly.  When the budget guard stopped tracing short of
-the planned window, ``refill`` shades just the skipped pixels the traced window does
-not cover after all.
+Every pixel is shaded in every mode, the focus window's too: the raster layer is whole,
+so automatic exposure is metered on it whatever the window (one exposure per frame,
+independent of the gaze), and wherever the budget guard stops tracing short of the
+planned window the raster layer is already there.
 
 CPU performance notes: the kernel follows ``Launcher.launch_pixels`` (one launch item
 per row on the CPU, so the big ``SceneGPU``/``AmbientGPU`` arguments are copied once
@@ -36,11 +36,6 @@ from .shading import diffuse_albedo, direct_light, shade_surface
 # CPU; results change by rounding only.
 _CPU_FLAGS = f"{wp.config.cpu_compiler_flags or '-march=native'} -ffp-contract=fast"
 wp.set_module_options({"enable_backward": False, "cpu_compiler_flags": _CPU_FLAGS})
-
-# Which pixels ``shade_pixels`` shades.
-SHADE_ALL = wp.constant(0)
-SHADE_OUTSIDE = wp.constant(1)
-SHADE_REFILL = wp.constant(2)
 
 
 @wp.func(inline=True)
@@ -73,26 +68,15 @@ def shade_pixels(
     amb: AmbientGPU,
     cam: CameraGPU,
     gb: GBufferArrays,
-    skip_weight: wp.array2d(dtype=wp.float32),
-    refill_weight: wp.array2d(dtype=wp.float32),
-    mode: int,
     color_out: wp.array2d(dtype=wp.vec3),
     row0: int,
     row_step: int,
     cols: int,
 ):
-    """Per pixel: ``shade_pixel`` into ``color_out``: every pixel (``mode`` SHADE_ALL),
-    those whose skip weight is < 1 (SHADE_OUTSIDE), or only those whose skip weight is
-    >= 1 and refill weight < 1 (SHADE_REFILL)."""
+    """Per pixel: ``shade_pixel`` into ``color_out``."""
     r, c = wp.tid()
     y = row0 + r * row_step
     for x in range(c * cols, wp.min(c * cols + cols, cam.width)):
-        if mode != SHADE_ALL:
-            skipped = skip_weight[y, x] >= 1.0
-            if mode == SHADE_OUTSIDE and skipped:
-                continue
-            if mode == SHADE_REFILL and not (skipped and refill_weight[y, x] < 1.0):
-                continue
         color_out[y, x] = shade_pixel(scene, amb, cam, gb, x, y)
 
 
@@ -102,72 +86,23 @@ class DeferredLighting(RenderPass):
     def __init__(self, launcher: Launcher) -> None:
         """Shade on ``launcher``'s device, splitting rows across its threads."""
         self.launcher = launcher
-        self._no_skip = wp.zeros((1, 1), dtype=wp.float32, device=launcher.device)
         launcher.ensure_loaded(shade_pixels)  # compiles the lighting module up front
 
     def execute(self, frame: FrameContext) -> None:
-        """Shade ``frame``'s G-buffer into its raster layer, skipping the focus region's
-        interior when the frame has one."""
+        """Shade ``frame``'s G-buffer into its raster layer (every pixel)."""
         assert self.scene is not None, "set_scene first"
-        skip = frame.region.weight if frame.region is not None else None
-        self.shade(self.scene, frame.camera, frame.gbuffer, frame.buffers.raster_color, frame.timer, skip)
+        self.shade(self.scene, frame.camera, frame.gbuffer, frame.buffers.raster_color, frame.timer)
 
     def shade(
-        self,
-        scene: DeviceScene,
-        camera: CameraGPU,
-        gbuffer: GBuffer,
-        color_out: wp.array,
-        timer: StageTimer,
-        skip_weight: wp.array | None = None,
+        self, scene: DeviceScene, camera: CameraGPU, gbuffer: GBuffer, color_out: wp.array, timer: StageTimer
     ) -> None:
-        """Write linear radiance (H, W) vec3 into ``color_out``.  ``skip_weight`` (H, W)
-        float32: pixels whose weight is >= 1 are left untouched (the hybrid mode's
-        window interior, which the traced layer replaces anyway)."""
-        mode = SHADE_ALL if skip_weight is None else SHADE_OUTSIDE
-        self._launch(scene, camera, gbuffer, color_out, timer, "lighting", mode, skip_weight=skip_weight)
-
-    def refill(self, frame: FrameContext, skipped_weight: wp.array, traced_weight: wp.array) -> None:
-        """Shade into ``frame``'s raster layer the pixels an earlier ``shade`` skipped
-        (``skipped_weight`` >= 1) that the traced window does not replace
-        (``traced_weight`` < 1) (stage "relight")."""
-        assert self.scene is not None, "set_scene first"
-        b = frame.buffers
-        self._launch(
-            self.scene, frame.camera, b.gbuffer, b.raster_color, frame.timer, "relight", SHADE_REFILL,
-            skip_weight=skipped_weight, refill_weight=traced_weight,
-        )  # fmt: skip
-
-    def _launch(
-        self,
-        scene: DeviceScene,
-        camera: CameraGPU,
-        gbuffer: GBuffer,
-        color_out: wp.array,
-        timer: StageTimer,
-        stage: str,
-        mode: int,
-        skip_weight: wp.array | None = None,
-        refill_weight: wp.array | None = None,
-    ) -> None:
+        """Write the linear radiance of every pixel, (H, W) vec3, into ``color_out``."""
         h, w = gbuffer.height, gbuffer.width
         if tuple(color_out.shape) != (h, w) or (camera.width, camera.height) != (w, h):
             raise ValueError(
                 f"color_out {tuple(color_out.shape)} and camera {camera.width}x{camera.height} "
                 f"must match the G-buffer ({w}x{h})"
             )
-        for name, array in (("skip_weight", skip_weight), ("refill_weight", refill_weight)):
-            if array is not None and tuple(array.shape) != (h, w):
-                raise ValueError(f"{name} has shape {tuple(array.shape)}, expected {(h, w)}")
-        inputs = [
-            scene.gpu,
-            scene.ambient,
-            camera,
-            gbuffer.kernel_arrays(),
-            skip_weight if skip_weight is not None else self._no_skip,
-            refill_weight if refill_weight is not None else self._no_skip,
-            mode,
-            color_out,
-        ]
-        with timer.stage(stage):
-            self.launcher.launch_pixels(shade_pixels, gbuffer.height, gbuffer.width, inputs)
+        inputs = [scene.gpu, scene.ambient, camera, gbuffer.kernel_arrays(), color_out]
+        with timer.stage("lighting"):
+            self.launcher.launch_pixels(shade_pixels, h, w, inputs)

@@ -115,9 +115,11 @@ class PostProcess(RenderPass):
 
     def execute(self, frame: FrameContext) -> None:
         """Post-process ``frame``'s colour into ``frame.image`` (a device array), the
-        automatic exposure keyed to the G-buffer's hit pixels."""
+        automatic exposure metered on ``frame.buffers.metered`` at the G-buffer's hit
+        pixels."""
+        b = frame.buffers
         frame.image = self.process(
-            frame.buffers.color, self.exposure_ev, self.tonemap, self.antialias, frame.timer, frame.gbuffer.triangle_id
+            b.color, self.exposure_ev, self.tonemap, self.antialias, frame.timer, frame.gbuffer.triangle_id, b.metered
         )
 
     def process(
@@ -128,12 +130,14 @@ class PostProcess(RenderPass):
         aa: bool,
         timer: StageTimer,
         hit_mask: np.ndarray | wp.array | None = None,
+        metered: wp.array | None = None,
     ) -> wp.array:
         """Expose ``color`` ((H, W) vec3, linear) by ``2**exposure_ev`` (None: automatic,
-        key 0.18 over the log-average luminance of ``hit_mask``'s pixels, or of all
-        non-black pixels), tone map with ``tonemap`` (one of ``TONEMAPS``), encode to
-        sRGB, anti-alias with FXAA when ``aa``; return the uint8 (H, W, 3) image on the
-        device (a buffer reused by the next call).
+        key 0.18 over the log-average luminance of ``metered``, default ``color``
+        itself, at ``hit_mask``'s pixels, or at all non-black pixels), tone map with
+        ``tonemap`` (one of ``TONEMAPS``), encode to sRGB, anti-alias with FXAA when
+        ``aa``; return the uint8 (H, W, 3) image on the device (a buffer reused by the
+        next call).
         ``hit_mask`` (H, W): a numpy bool array, or a Warp array on the device, bool or
         int32 ids (hit where >= 0, e.g. the G-buffer's ``triangle_id``).
         The EV used stays on the device (``exposure``; ``last_exposure_ev`` reads it)."""
@@ -143,7 +147,7 @@ class PostProcess(RenderPass):
         buffers = self._targets(h, w)
         with timer.stage("tonemap"):
             if exposure_ev is None:
-                self.auto_exposure(color, hit_mask)
+                self.auto_exposure(color if metered is None else metered, hit_mask)
             else:
                 self.set_exposure(exposure_ev)
             inputs = [color, self._exposure, self._encoder, buffers["ldr"], self._luma_lut, buffers["luma"]]

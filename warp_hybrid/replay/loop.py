@@ -18,6 +18,7 @@ the injected clock only, so a test with a fake clock and a cost model is determi
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from typing import Any
@@ -36,6 +37,8 @@ from ..timing import Clock, perf_clock
 #: The stages that trace; the controller's cost map learns their time.
 TRACE_STAGES = ("trace_setup", "trace_shadow", "trace_secondary")
 #: The stages after tracing (the controller reserves their time behind the deadline).
+#: "relight" no longer runs (the raster layer is shaded everywhere); it stays in the
+#: stats CSV's columns (always 0) so the file keeps its format.
 AFTER_TRACE_STAGES = ("relight", "accumulate", "compose", "tonemap", "aa", "readback", "adapt")
 #: Every stage a frame can report, in frame order (the stats CSV's stage columns).
 FRAME_STAGES = (
@@ -182,6 +185,15 @@ class AdaptiveLoop:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+    def set_budget(self, budget_ms: float) -> None:
+        """Aim at a frame-time budget of ``budget_ms`` from the next frame on (a live
+        viewer's control); ``RenderSettingsError`` when it is not a positive number."""
+        settings = dataclasses.replace(self.settings, budget_ms=float(budget_ms))
+        settings.validate()
+        self.settings = settings
+        if self.controller is not None:
+            self.controller.settings.budget_ms = settings.budget
 
     def advance(self, t: float) -> None:
         """Move the scene to ``t`` seconds (stages "scene_update" and "refit"); the time

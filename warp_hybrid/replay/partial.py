@@ -12,10 +12,9 @@ the target is untouched; ``discard`` removes the temporary file.
 from __future__ import annotations
 
 import os
-import tempfile
 from pathlib import Path
 
-from gaze.atomic import replace_atomically
+from gaze.atomic import replace_atomically, temp_beside
 from gaze.errors import GazeError
 
 from ..errors import WarpHybridError
@@ -31,28 +30,17 @@ class PartialFile:
     def __init__(self, path: str | os.PathLike[str], suffix: str) -> None:
         self.path = Path(path)
         self.suffix = suffix
-        folder = self.path.parent
         try:
-            folder.mkdir(parents=True, exist_ok=True)
-        except OSError as exc:
-            raise WarpHybridError(f"{self.path}: cannot create output folder {folder}: {exc.strerror or exc}") from None
-        if self.path.is_dir():
-            raise WarpHybridError(f"{self.path}: output path is a folder")
-        try:
-            fd, name = tempfile.mkstemp(prefix=f".{self.path.name}.", suffix=suffix, dir=folder)
-        except OSError as exc:
-            raise WarpHybridError(f"{self.path}: cannot write in {folder}: {exc.strerror or exc}") from None
-        os.close(fd)
-        self.temp = Path(name)
+            self.temp = temp_beside(self.path, suffix)
+        except GazeError as exc:
+            raise WarpHybridError(str(exc)) from None
 
     def commit(self) -> None:
         """Rename the finished temporary file over ``path`` with the ordinary permissions
         (through ``replace_atomically``); a file-system error removes it and raises
         ``WarpHybridError`` naming ``path``."""
         try:
-            replace_atomically(
-                self.path, lambda tmp: os.replace(self.temp, tmp), make_parents=True, temp_suffix=self.suffix
-            )
+            replace_atomically(self.path, lambda tmp: os.replace(self.temp, tmp), temp_suffix=self.suffix)
         except GazeError as exc:
             self.discard()
             raise WarpHybridError(str(exc)) from None

@@ -109,12 +109,13 @@ def _sigterm_interrupts() -> Iterator[None]:
         signal.signal(signal.SIGTERM, previous)
 
 
-def _overlaid(frame: LoopFrame) -> Any:
-    """The frame's image with the planned window, the traced one and the gaze drawn."""
-    image = frame.frame.image
+def overlay_geometry(frame: LoopFrame) -> tuple[Any, ...] | None:
+    """What ``draw_overlay`` draws for a frame: the planned window's centre (px), shape,
+    half width and half height, the gaze point (px) and how far tracing got when it
+    stopped short (a circle's radius, else None); None for a frame without a window."""
     window = frame.frame.stats.get("window")
     if window is None or window.get("gaze") is None:
-        return image
+        return None
     rs_w, rs_h = frame.frame.stats["resolution"]
     guard = frame.frame.stats.get("guard")
     layout_shape = window["shape"]
@@ -127,7 +128,13 @@ def _overlaid(frame: LoopFrame) -> Any:
     half_w = scale if scale is not None else math.sqrt(planned) * rs_w / 2.0
     half_h = scale if scale is not None else math.sqrt(planned) * rs_h / 2.0
     gaze = (frame.gaze.x * rs_w, frame.gaze.y * rs_h)
-    return draw_overlay(image, (cx, cy), layout_shape, half_w, half_h, gaze, traced)
+    return (cx, cy), layout_shape, half_w, half_h, gaze, traced
+
+
+def _overlaid(frame: LoopFrame) -> Any:
+    """The frame's image with the planned window, the traced one and the gaze drawn."""
+    geometry = overlay_geometry(frame)
+    return frame.frame.image if geometry is None else draw_overlay(frame.frame.image, *geometry)
 
 
 def _measure_errors(errors: FrameErrors, path: Path, progress: bool | None) -> dict[str, Any]:

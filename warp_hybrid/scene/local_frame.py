@@ -19,6 +19,20 @@ once per scene source.  So:
   its scale (``Q`` scales with the camera's near distance);
 * the origin is a multiple of a power of two, so subtracting it from a float64 world
   position is exact.
+
+**The representable range** (``frame_problem``, applied to every scene a loader
+returns): that precision holds while
+
+* every local coordinate (points, cameras, positioned lights) stays within
+  ``MAX_LOCAL_COORDINATE`` = 2^30 (about 1.07e9) units: beyond it the squared distances
+  and the products the kernels form leave float32's range (a 1e10-unit scene renders
+  streaks; 3e9 still renders the 1-unit image, so 2^30 keeps a margin), and
+* the origin lies within ``MAX_ORIGIN_NEARS`` = 2^42 near distances of the world origin
+  (4.4e10 units for a 1 cm near plane): beyond it float64 world positions are coarser
+  than float32's steps inside the local frame (a room 1e15 units out breaks up).
+
+A scene beyond either is refused with an error naming the file and the prim; the
+scale itself (1e-9 .. 1e9) does not matter.
 """
 
 from __future__ import annotations
@@ -28,10 +42,14 @@ from dataclasses import replace
 
 import numpy as np
 
-from .model import Camera, Light
+from .model import Camera, Light, LightKind
 
 #: The snapping grid of the origin, in near distances of the default camera.
 ORIGIN_GRID_NEARS = 2.0**13
+#: The largest coordinate magnitude in the local frame (see the module docs).
+MAX_LOCAL_COORDINATE = 2.0**30
+#: The furthest origin from the world origin, in near distances of the default camera.
+MAX_ORIGIN_NEARS = 2.0**42
 
 
 def choose_origin(camera: Camera) -> np.ndarray:
@@ -68,3 +86,34 @@ def local_light(light: Light, origin: np.ndarray) -> Light:
         return light
     p = np.asarray(light.position, dtype=np.float64) - origin
     return replace(light, position=(float(p[0]), float(p[1]), float(p[2])))
+
+
+def frame_problem(
+    points: np.ndarray, cameras: list[Camera], lights: list[Light], origin: np.ndarray
+) -> tuple[str, int | str] | None:
+    """Why a scene in the frame of ``origin`` is beyond the representable range (module
+    docs), with what is at fault (a point index, or a camera's or light's name); None
+    when it is within it."""
+    if cameras:
+        near = float(cameras[0].near)
+        furthest = float(np.abs(origin).max()) if origin.size else 0.0
+        if furthest > MAX_ORIGIN_NEARS * near:
+            problem = (
+                f"lies {furthest:.3g} units from the world origin, more than 2^42 near distances of its camera "
+                f"({MAX_ORIGIN_NEARS * near:.3g} units for its near {near:g}): beyond float64's precision there"
+            )
+            return problem, cameras[0].name
+    limit = MAX_LOCAL_COORDINATE
+    what = f"beyond the representable range (|coordinate| <= 2^30 = {limit:.3g} around the camera)"
+    if len(points):
+        big = np.abs(points).max(axis=1) > limit
+        if big.any():
+            i = int(np.flatnonzero(big)[0])
+            return f"point {i} ({np.asarray(points[i], dtype=np.float64).tolist()}) is {what}", i
+    for camera in cameras:
+        if np.abs(camera.position).max() > limit:
+            return f"the camera position {camera.position.tolist()} is {what}", camera.name
+    for light in lights:
+        if light.kind != LightKind.DISTANT and max(abs(c) for c in light.position) > limit:
+            return f"the light position {list(light.position)} is {what}", light.name
+    return None

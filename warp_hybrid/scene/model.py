@@ -68,6 +68,9 @@ class TextureBinding:
 
     The sampled value is ``texel * scale + bias`` (UsdUVTexture semantics).  UV (0, 0)
     is the bottom-left of the image (USD convention), so sampling flips v.
+    ``uv_transform`` (a, b, c, d, e, f) maps the mesh's uv to the texture's first
+    (``u' = a u + b v + c``, ``v' = d u + e v + f``; UsdTransform2d nodes between the
+    primvar reader and the texture), identity by default.
     """
 
     image: int
@@ -75,6 +78,7 @@ class TextureBinding:
     wrap_t: Wrap = Wrap.REPEAT
     scale: tuple[float, float, float, float] = (1.0, 1.0, 1.0, 1.0)
     bias: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
+    uv_transform: tuple[float, float, float, float, float, float] = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0)
 
 
 @dataclass
@@ -82,7 +86,9 @@ class Material:
     """UsdPreviewSurface parameters, linear colours.
 
     Texture slots hold an index into ``Scene.textures`` or -1.  Scalar slots read the
-    channel given by the ``*_channel`` field (0=r, 1=g, 2=b, 3=a).
+    channel given by the ``*_channel`` field (0=r, 1=g, 2=b, 3=a).  ``diffuse_primvar``
+    names the colour primvar the diffuse colour follows per corner (``Scene.corner_colors``:
+    displayColor or a UsdPrimvarReader's primvar), "" for none.
     """
 
     name: str
@@ -107,6 +113,12 @@ class Material:
     metallic_channel: int = 0
     opacity_texture: int = -1
     opacity_channel: int = 3
+    diffuse_primvar: str = ""
+
+    @property
+    def is_vertex_colored(self) -> bool:
+        """The diffuse colour comes from the per-corner colours (``Scene.corner_colors``)."""
+        return bool(self.diffuse_primvar)
 
     @property
     def is_transmissive(self) -> bool:
@@ -250,7 +262,9 @@ class Scene:
     ``points``; ``corner_normals`` (T, 3, 3) and ``corner_uvs`` (T, 3, 2) per triangle
     corner (so any USD interpolation maps onto them); ``triangle_material`` (T,) int32
     into ``materials``.  Normals are unit length and follow the mesh orientation
-    (left-handed meshes are flipped at load).
+    (left-handed meshes are flipped at load).  ``corner_colors`` (T, 3, 3) linear colours
+    per corner, read by vertex-coloured materials (``Material.is_vertex_colored``);
+    empty (0, 3, 3) when no triangle uses one.
     """
 
     path: str
@@ -273,6 +287,7 @@ class Scene:
     up_axis: str = "Y"
     warnings: list[str] = field(default_factory=list)
     origin: np.ndarray = field(default_factory=lambda: np.zeros(3, dtype=np.float64))
+    corner_colors: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 3), dtype=np.float32))
 
     @property
     def triangle_count(self) -> int:

@@ -7,9 +7,8 @@ planned window not at once but in ``RINGS`` rings of equal area, innermost first
 would end past the deadline: a misprediction of the controller costs at most about
 one ring, never the budget.  Where tracing stopped short, the window actually traced
 is the nested window up to the last ring done: its weights are rebuilt so the feather
-lies where tracing actually stopped, and the raster lighting shades the pixels it had
-skipped inside the planned window but the traced window no longer covers
-(``DeferredLighting.refill``, stage "relight").  The innermost ring is always traced.
+lies where tracing actually stopped, and the compositor shows the raster layer (shaded
+everywhere, ``lighting.deferred``) beyond it.  The innermost ring is always traced.
 A frame without a deadline is traced in one piece, as the plain ``Tracer`` pass does.
 """
 
@@ -17,11 +16,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import warp as wp
-
 from ..core.passes import FrameContext, RenderPass
 from ..focus import FocusRegionBuilder
-from ..lighting.deferred import DeferredLighting
 from ..scene.device import DeviceScene
 from .tracer import Tracer
 
@@ -43,14 +39,12 @@ class GuardReport:
 class GuardedTrace(RenderPass):
     """The tracing pass of a hybrid frame, with the budget guard (module docstring)."""
 
-    def __init__(self, tracer: Tracer, focus: FocusRegionBuilder, lighting: DeferredLighting) -> None:
+    def __init__(self, tracer: Tracer, focus: FocusRegionBuilder) -> None:
         """Guard ``tracer``'s work, with ``focus`` for the rings and the traced window's
-        weights and ``lighting`` for the refill."""
+        weights."""
         self.tracer = tracer
         self.focus = focus
-        self.lighting = lighting
         self.report: GuardReport | None = None
-        self._skipped: wp.array | None = None
 
     def set_scene(self, scene: DeviceScene) -> None:
         """Draw ``scene`` (the wrapped tracer follows)."""
@@ -88,10 +82,6 @@ class GuardedTrace(RenderPass):
             done += 1
         frame.rays = tally
         if done < RINGS:
-            if self._skipped is None or tuple(self._skipped.shape) != tuple(planned.weight.shape):
-                self._skipped = wp.empty_like(planned.weight)
-            wp.copy(self._skipped, planned.weight)
             frame.region = self.focus.build_layout(rings.layouts[done - 1], frame.timer)
-            self.lighting.refill(frame, self._skipped, frame.region.weight)
         screen = float(gb.width * gb.height)
         self.report = GuardReport(done, RINGS, planned.count / screen, frame.region.count / screen)

@@ -273,7 +273,7 @@ def test_invisible_guide_and_proxy_prims_are_skipped(tmp_path):
 
 def test_unsupported_prims_are_reported_once_by_name(tmp_path):
     stage, path = new_stage(tmp_path)
-    UsdGeom.Sphere.Define(stage, "/World/Ball")
+    UsdGeom.Points.Define(stage, "/World/Ball")
     UsdGeom.BasisCurves.Define(stage, "/World/Hair")
     add_mesh(stage, "/World/Sub", [(0, 0, 0), (1, 0, 0), (0, 1, 0)], [3], [0, 1, 2], subdivision="catmullClark")
     from warp_hybrid.scene.usd.loader import UsdSceneSource
@@ -285,7 +285,7 @@ def test_unsupported_prims_are_reported_once_by_name(tmp_path):
     ball = [w for w in scene.warnings if w.startswith("/World/Ball:")]
     hair = [w for w in scene.warnings if w.startswith("/World/Hair:")]
     sub = [w for w in scene.warnings if w.startswith("/World/Sub:")]
-    assert len(ball) == 1 and "Sphere" in ball[0]
+    assert len(ball) == 1 and "Points" in ball[0]
     assert len(hair) == 1 and "BasisCurves" in hair[0]
     assert len(sub) == 1 and "control cage" in sub[0]
     assert scene.triangle_count == 1

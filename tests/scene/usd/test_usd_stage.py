@@ -108,8 +108,8 @@ def test_bad_topology(tmp_path, counts, indices, message):
     stage, path = new_stage(tmp_path)
     add_mesh(stage, "/World/Broken", [(0, 0, 0), (1, 0, 0), (0, 1, 0)], counts, indices)
     stage.GetRootLayer().Save()
-    with pytest.raises(SceneError, match=message) as err:
-        load_scene(path)
+    with pytest.raises(SceneError, match=message) as err:  # strict: the refusal (by default it is skipped)
+        load_scene(path, strict=True)
     assert str(err.value).startswith(f"{path}: /World/Broken: ")
 
 

@@ -26,6 +26,7 @@ from gaze.atomic import replace_atomically
 from gaze.errors import GazeError
 
 from ...errors import SceneError
+from ..usd.pxr_text import tf_message
 
 USD_EXTENSIONS = (".usda", ".usdc")
 SCOPES = ("Geom", "Looks", "Lights", "Cameras")
@@ -121,11 +122,11 @@ def save_stage(stage: Usd.Stage, path: str | os.PathLike[str]) -> None:
             raise SceneError(str(dst), "USD could not write the layer")
 
     try:
-        replace_atomically(dst, export, make_parents=True, temp_suffix=dst.suffix.lower())
+        replace_atomically(dst, export, temp_suffix=dst.suffix.lower())
     except GazeError as exc:
         raise SceneError(str(dst), f"cannot write file: {exc.problem}") from exc
     except Tf.ErrorException as exc:
-        raise SceneError(str(dst), f"cannot write file: {exc}") from exc
+        raise SceneError(str(dst), f"cannot write file: {tf_message(exc)}") from exc
 
 
 def define_mesh(

@@ -18,7 +18,10 @@ Texture convention: USD uv (0, 0) is the bottom-left of the image while texel ro
 is its top row, so ``v`` flips against rows.  Sampling is bilinear between texel
 centres; the result is ``filtered texel * scale + bias`` (UsdUVTexture).  Wrap modes
 (``model.Wrap``): repeat, clamp (edge texels), mirror (mirrored repeat) and black
-(texels outside the image read as 0 before scale and bias).
+(texels outside the image read as 0 before scale and bias).  A binding's uv transform
+(UsdTransform2d, ``TextureGPU.uv_u/uv_v``) maps the mesh uv (and its pixel footprint)
+before any of this.  A vertex-coloured material (``FLAG_VERTEX_COLOR``) takes its
+diffuse colour from the interpolated ``corner_colors``.
 
 Minification: material textures carry box-filtered mip chains (``mipmaps``).  The
 G-buffer passes know each pixel's uv footprint (``uv_footprint``: ray differentials
@@ -34,7 +37,7 @@ from __future__ import annotations
 
 import warp as wp
 
-from ...core.scene_gpu import FLAG_CUTOUT, FLAG_SPECULAR_WORKFLOW, SceneGPU, TextureGPU
+from ...core.scene_gpu import FLAG_CUTOUT, FLAG_SPECULAR_WORKFLOW, FLAG_VERTEX_COLOR, SceneGPU, TextureGPU
 from ..model import Wrap
 
 WRAP_REPEAT = wp.constant(int(Wrap.REPEAT))
@@ -178,11 +181,19 @@ def _bilinear(scene: SceneGPU, t: TextureGPU, offset: int, width: int, height: i
 
 
 @wp.func(inline=True)
+def _texture_uv(t: TextureGPU, uv: wp.vec2) -> wp.vec2:
+    """The mesh ``uv`` through binding ``t``'s uv transform (UsdTransform2d)."""
+    p = wp.vec3(uv[0], uv[1], 1.0)
+    return wp.vec2(wp.dot(t.uv_u, p), wp.dot(t.uv_v, p))
+
+
+@wp.func(inline=True)
 def sample_texture(scene: SceneGPU, tex: int, uv: wp.vec2) -> wp.vec4:
-    """Bilinearly sample texture binding ``tex`` at USD ``uv`` (v up) in mip level 0,
-    with its wrap modes, then apply its scale and bias."""
+    """Bilinearly sample texture binding ``tex`` at USD ``uv`` (v up, before the
+    binding's uv transform) in mip level 0, with its wrap modes, then apply its scale
+    and bias."""
     t = scene.textures[tex]
-    return wp.cw_mul(_bilinear(scene, t, t.offset, t.width, t.height, uv), t.scale) + t.bias
+    return wp.cw_mul(_bilinear(scene, t, t.offset, t.width, t.height, _texture_uv(t, uv)), t.scale) + t.bias
 
 
 @wp.func_native(
@@ -221,15 +232,16 @@ def sample_texture_lod(scene: SceneGPU, tex: int, uv: wp.vec2, lod: float) -> wp
     in levels floor(lod) and floor(lod) + 1, blended by the fraction; lod <= 0 is the
     plain bilinear level-0 lookup of ``sample_texture``.  Scale and bias applied."""
     t = scene.textures[tex]
-    return wp.cw_mul(_trilinear(scene, t, uv, lod), t.scale) + t.bias
+    return wp.cw_mul(_trilinear(scene, t, _texture_uv(t, uv), lod), t.scale) + t.bias
 
 
 @wp.func(inline=True)
 def _lod(t: TextureGPU, footprint: wp.vec4) -> float:
-    ax = footprint[0] * float(t.width)
-    ay = footprint[1] * float(t.height)
-    bx = footprint[2] * float(t.width)
-    by = footprint[3] * float(t.height)
+    # The footprint through the uv transform's linear part, then in level-0 texels.
+    ax = (t.uv_u[0] * footprint[0] + t.uv_u[1] * footprint[1]) * float(t.width)
+    ay = (t.uv_v[0] * footprint[0] + t.uv_v[1] * footprint[1]) * float(t.height)
+    bx = (t.uv_u[0] * footprint[2] + t.uv_u[1] * footprint[3]) * float(t.width)
+    by = (t.uv_v[0] * footprint[2] + t.uv_v[1] * footprint[3]) * float(t.height)
     rho2 = wp.max(ax * ax + ay * ay, bx * bx + by * by)
     if not (rho2 > 1.0):
         return -1.0
@@ -241,7 +253,8 @@ def texture_lod(scene: SceneGPU, tex: int, footprint: wp.vec4) -> float:
     """Isotropic level of detail (OpenGL's) of binding ``tex`` for the uv footprint
     (du/dx, dv/dx, du/dy, dv/dy) of one pixel: log2 of the longer of the two pixel
     axes measured in level-0 texels (to within 0.005); -1 when the texture is
-    magnified (and for a zero footprint), which selects level 0."""
+    magnified (and for a zero footprint), which selects level 0.  The footprint is in
+    mesh uv, before the binding's uv transform."""
     return _lod(scene.textures[tex], footprint)
 
 
@@ -250,7 +263,7 @@ def sample_texture_grad(scene: SceneGPU, tex: int, uv: wp.vec2, footprint: wp.ve
     """``sample_texture_lod`` at the level of detail ``texture_lod`` picks for the
     pixel footprint (du/dx, dv/dx, du/dy, dv/dy)."""
     t = scene.textures[tex]
-    return wp.cw_mul(_trilinear(scene, t, uv, _lod(t, footprint)), t.scale) + t.bias
+    return wp.cw_mul(_trilinear(scene, t, _texture_uv(t, uv), _lod(t, footprint)), t.scale) + t.bias
 
 
 @wp.func(inline=True)
@@ -373,6 +386,8 @@ def surface_at_grad(
     h.flags = m.flags
 
     diffuse = m.diffuse
+    if (m.flags & FLAG_VERTEX_COLOR) != 0:
+        diffuse = scene.corner_colors[k] * bu + scene.corner_colors[k + 1] * bv + scene.corner_colors[k + 2] * bw
     if m.diffuse_tex >= 0:
         d = sample_texture_grad(scene, m.diffuse_tex, uv, footprint)
         diffuse = wp.vec3(d[0], d[1], d[2])

@@ -24,6 +24,7 @@ from ...core.scene_gpu import (
     FLAG_REFRACTIVE,
     FLAG_SPECULAR_WORKFLOW,
     FLAG_TRANSMISSIVE,
+    FLAG_VERTEX_COLOR,
     MAX_MIP_LEVELS,
     AmbientGPU,
     EnvironmentGPU,
@@ -57,6 +58,7 @@ def material_flags(m: Material) -> int:
         (FLAG_TRANSMISSIVE, m.is_transmissive),
         (FLAG_REFRACTIVE, m.is_refractive),
         (FLAG_CUTOUT, m.is_cutout),
+        (FLAG_VERTEX_COLOR, m.is_vertex_colored),
     )
     return sum(int(bit) for bit, on in bits if on)
 
@@ -149,6 +151,9 @@ def pack_textures(scene: Scene) -> tuple[np.ndarray, list[TextureGPU]]:
         g.wrap_t = int(t.wrap_t)
         g.scale = wp.vec4(*[float(v) for v in t.scale])
         g.bias = wp.vec4(*[float(v) for v in t.bias])
+        a, b, c, d, e, f = (float(v) for v in t.uv_transform)
+        g.uv_u = wp.vec3(a, b, c)
+        g.uv_v = wp.vec3(d, e, f)
         structs.append(g)
     return texels, structs
 
@@ -166,6 +171,20 @@ def _environment_gpu(scene: Scene) -> EnvironmentGPU:
 
 def _f32(a: np.ndarray, width: int) -> np.ndarray:
     return np.ascontiguousarray(a.reshape(-1, width), dtype=np.float32)
+
+
+def _corner_colors(scene: Scene) -> np.ndarray:
+    """The per-corner colours as flat rgb rows; one black row when the scene has none
+    (kernels cannot take empty arrays).  Raises ``SceneError`` when a vertex-coloured
+    material would read colours the scene does not hold (a kernel would read out of bounds)."""
+    if scene.corner_colors.size:
+        if scene.corner_colors.shape != (scene.triangle_count, 3, 3):
+            raise SceneError(scene.path, f"corner_colors has shape {scene.corner_colors.shape}, expected (T, 3, 3)")
+        return _f32(scene.corner_colors, 3)
+    coloured = [m.name for m in scene.materials if m.is_vertex_colored]
+    if coloured:
+        raise SceneError(scene.path, f"material {coloured[0]} reads corner colours but the scene has none")
+    return np.zeros((1, 3), dtype=np.float32)
 
 
 class DeviceScene:
@@ -186,6 +205,7 @@ class DeviceScene:
             self.indices = wp.array(np.ascontiguousarray(scene.indices.reshape(-1), np.int32), dtype=wp.int32, device=d)
             self.corner_normals = wp.array(_f32(scene.corner_normals, 3), dtype=wp.vec3, device=d)
             self.corner_uvs = wp.array(_f32(scene.corner_uvs, 2), dtype=wp.vec2, device=d)
+            self.corner_colors = wp.array(_corner_colors(scene), dtype=wp.vec3, device=d)
             self.triangle_material = wp.array(
                 np.ascontiguousarray(scene.triangle_material, np.int32), dtype=wp.int32, device=d
             )
@@ -222,6 +242,7 @@ class DeviceScene:
         s.indices = self.indices
         s.corner_normals = self.corner_normals
         s.corner_uvs = self.corner_uvs
+        s.corner_colors = self.corner_colors
         s.triangle_material = self.triangle_material
         s.materials = self.materials
         s.textures = self.textures
@@ -255,6 +276,8 @@ class DeviceScene:
             self.geometry_version += 1
         if scene.corner_normals is not old.corner_normals:
             self.corner_normals.assign(_f32(scene.corner_normals, 3))
+        if scene.corner_colors is not old.corner_colors and not np.array_equal(scene.corner_colors, old.corner_colors):
+            self.corner_colors = wp.array(_corner_colors(scene), dtype=wp.vec3, device=self.device)
         self.scene = scene
         self._upload_lights(scene)
         materials_changed = scene.materials is not old.materials and scene.materials != old.materials

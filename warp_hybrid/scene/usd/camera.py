@@ -23,7 +23,8 @@ import math
 import numpy as np
 from pxr import Gf, Usd, UsdGeom
 
-from ...errors import RenderSettingsError
+from ...errors import RenderSettingsError, SceneError
+from ..camera_check import camera_problem
 from ..model import Camera
 from .validate import Diagnostics
 
@@ -43,10 +44,23 @@ def world_frustum(gf: Gf.Camera) -> Gf.Frustum:
     return frustum
 
 
+def _matrix(m: Gf.Matrix4d) -> np.ndarray:
+    """A ``Gf.Matrix4d`` as a float64 (4, 4) array."""
+    return np.array(m, dtype=np.float64).reshape(4, 4)
+
+
 def read_camera(prim: Usd.Prim, time: float, diag: Diagnostics) -> Camera:
-    """The camera ``prim`` at ``time`` in world space (``world_frustum``)."""
+    """The camera ``prim`` at ``time`` in world space (``world_frustum``); a
+    ``SceneError`` naming the file and the prim when its authored values break
+    ``scene.camera_check``'s rule."""
     name = str(prim.GetPath())
     gf = UsdGeom.Camera(prim).GetCamera(Usd.TimeCode(time))
+    clip = gf.clippingRange
+    problem = camera_problem(
+        float(gf.focalLength), float(gf.horizontalAperture), float(clip.min), float(clip.max), _matrix(gf.transform)
+    )
+    if problem is not None:
+        raise SceneError(diag.path, problem, name)
     if gf.projection != Gf.Camera.Perspective:
         diag.warn("orthographic projection is not supported; rendered as a perspective camera", name)
     if abs(gf.horizontalApertureOffset) > 0 or abs(gf.verticalApertureOffset) > 0:

@@ -29,14 +29,23 @@ visibility, topology and instance counts are not themselves animated.
 Traversal (``Usd.TraverseInstanceProxies``, so instanceable prims come through as
 instance proxies and share one triangulation per prototype mesh):
 
-* ``UsdGeom.Mesh`` prims that are visible at the time code and whose purpose is
-  ``default`` or ``render`` (guide and proxy are skipped);
+* ``UsdGeom.Mesh`` prims and the implicit Cube, Sphere, Cone, Cylinder, Capsule and
+  Plane (tessellated by ``implicit``) that are visible at the time code and whose
+  purpose is ``default`` or ``render`` (guide and proxy are skipped); a mesh whose
+  topology is malformed is skipped with a warning naming it (``strict`` refuses the
+  stage instead);
 * ``UsdGeom.PointInstancer``: one batch per prototype mesh with all its instance
   transforms (``ComputeInstanceTransformsAtTime``; inactive/invisible ids masked);
 * UsdLux lights (see ``lights``) and every ``UsdGeom.Camera`` (visible or not);
-* anything else that draws (other gprims such as Points, BasisCurves, NURBS, implicit
-  spheres/cubes, volumes; light filters; mesh lights; skinning) is reported once per
-  prim and skipped, never dropped silently.
+* anything else that draws (other gprims such as Points, BasisCurves, NURBS,
+  volumes; light filters; mesh lights; skinning) is reported once per prim and
+  skipped, never dropped silently.
+
+A stage with no light and no dome is lit as usdview lights it (``default_light``:
+a headlight along the default camera's view and a dim dome), with one warning.
+Colour primvars a material follows per corner (displayColor that varies over an
+unbound mesh, a UsdPrimvarReader on diffuseColor) fill ``Scene.corner_colors``
+(``primvars``).
 
 ``MeshRange.prim_path`` is the mesh prim (an instance proxy path for instanceable
 prims, ``MESH@INSTANCER[i]`` for PointInstancer instance ``i``).  A stage without
@@ -52,6 +61,7 @@ the stage sits; ``Scene.origin`` holds it.
 
 from __future__ import annotations
 
+import math
 import os
 from dataclasses import dataclass, replace
 
@@ -60,14 +70,18 @@ from pxr import Sdf, Usd, UsdGeom, UsdLux, UsdShade
 
 from ...errors import SceneError
 from ..local_frame import choose_origin, local_camera, local_light, local_points
-from ..model import Camera, Material, MeshRange, Scene
+from ..model import Camera, Environment, Light, Material, MeshRange, Scene
 from .camera import FRAMING_CAMERA_NAME, framing_camera, read_camera
+from .default_light import DEFAULT_LIGHT_WARNING, default_dome, headlight, uses_default_lighting
+from .gprims import empty_mesh, is_drawn, read_gprim
 from .lights import read_lights
 from .materials import MaterialLibrary, bound_material
-from .meshes import LocalMesh, WorldMesh, corner_uvs, read_local_mesh, to_world
+from .meshes import LocalMesh, MalformedMeshError, WorldMesh, corner_uvs, to_world
+from .primvars import DISPLAY_COLOR, PrimvarInput, corner_colors, read_display_color
 from .stage import StageInfo, open_stage, read_stage_info, report_composition_errors
+from .stage_metadata import check_stage_metadata
 from .textures import ImageLibrary
-from .validate import Diagnostics, validate_scene
+from .validate import Diagnostics, check_extent, validate_scene
 
 _SKIPPED_PURPOSES = (UsdGeom.Tokens.guide, UsdGeom.Tokens.proxy)
 _INSTANCER_ATTRS = (
@@ -80,7 +94,7 @@ _INSTANCER_ATTRS = (
     "angularVelocities",
     "invisibleIds",
 )
-_GEOMETRY = ("points", "indices", "corner_normals", "corner_uvs", "triangle_material")
+_GEOMETRY = ("points", "indices", "corner_normals", "corner_uvs", "triangle_material", "corner_colors")
 
 
 @dataclass
@@ -166,6 +180,8 @@ class _Patch:
         self._put("corner_normals", first_triangle, w.corner_normals)
         self._put("corner_uvs", first_triangle, w.corner_uvs)
         self._put("triangle_material", first_triangle, part.triangle_material)
+        if w.corner_colors is not None and self.arrays["corner_colors"].size:
+            self._put("corner_colors", first_triangle, w.corner_colors)
         self.finite = self.finite and all(np.isfinite(a).all() for a in (w.points, w.corner_normals, w.corner_uvs))
 
     def _put(self, name: str, first: int, values: np.ndarray) -> None:
@@ -214,18 +230,22 @@ def _matrix(m) -> np.ndarray:
 class UsdSceneSource:
     """An open USD stage that produces ``Scene`` snapshots at time codes."""
 
-    def __init__(self, path: str | os.PathLike, stage: Usd.Stage | None = None) -> None:
+    def __init__(self, path: str | os.PathLike, stage: Usd.Stage | None = None, strict: bool = False) -> None:
         """Open ``path`` (or wrap an already opened ``stage``, e.g. one converted from
-        another format in memory; ``path`` then names it in messages)."""
+        another format in memory; ``path`` then names it in messages).  ``strict``: a
+        malformed mesh raises ``SceneError`` instead of being skipped with a warning."""
         self.path = os.fspath(path)
+        self.strict = strict
         self.diagnostics = Diagnostics(self.path)
         if stage is None:
             stage = open_stage(self.path, self.diagnostics)
         else:
             report_composition_errors(stage, self.diagnostics)
         self.stage = stage
-        self.info: StageInfo = read_stage_info(stage)
+        self.info: StageInfo = check_stage_metadata(read_stage_info(stage), stage, self.path, self.diagnostics)
         self.images = ImageLibrary(self.diagnostics)
+        self._skipped: set[str] = set()  # source keys of malformed meshes, drawn as nothing
+        self._headlit = False  # default lighting (no lights on the stage) is in use
         self._materials: MaterialLibrary | None = None
         self._local: dict[str, LocalMesh] = {}
         self._parts: dict[str, _Part] = {}
@@ -252,6 +272,8 @@ class UsdSceneSource:
         After the first call only what may vary over time is evaluated again (see the
         module docs); the result is the same as a full evaluation's."""
         t = self.info.default_time if time is None else float(time)
+        if not math.isfinite(t):
+            raise SceneError(self.path, f"time code {time!r} is not a finite number")
         if self._frame is not None:
             scene = self._update(self._frame, t)
             if scene is not None:
@@ -283,14 +305,35 @@ class UsdSceneSource:
         scene.lights = [local_light(light, self._origin) for light in lights]
         scene.environment = environment
         scene.cameras = [local_camera(c, self._origin) for c in cameras]
+        scene.lights, scene.environment = self._lighting(scene.lights, scene.environment, scene.cameras[0])
         scene.images = list(self.images.images)
         scene.textures = list(self.images.textures)
         scene.materials = list(self._materials.materials)
+        self._warn_if_empty(trav, parts, scene)
         scene.warnings = self.warnings
         validate_scene(scene)
         _freeze(scene)
         self._frame = self._record(scene, trav, parts)
         return scene
+
+    def _lighting(self, lights: list[Light], environment: Environment | None, camera: Camera) -> tuple:
+        """(lights, environment): the stage's own, or when it has none the default
+        lighting aimed along ``camera`` (``default_light``; warned once)."""
+        self._headlit = uses_default_lighting(lights, environment)
+        if not self._headlit:
+            return lights, environment
+        self.diagnostics.warn(DEFAULT_LIGHT_WARNING)
+        return [headlight(camera)], default_dome()
+
+    def _warn_if_empty(self, trav: _Traversal, parts: list[_Part], scene: Scene) -> None:
+        """Warn (once per source) about meshes without faces (malformed ones were warned
+        about when skipped) and a scene with nothing to draw."""
+        diag = self.diagnostics
+        for item, part in zip(trav.items, parts):
+            if not len(part.world.tri_points) and item.source not in self._skipped:
+                diag.warn("the mesh has no faces: nothing of it is drawn", str(item.prim.GetPath()))
+        if scene.triangle_count == 0:
+            diag.warn("nothing to see: the stage has no mesh faces to draw; the image is only the background")
 
     @staticmethod
     def _record(scene: Scene, trav: _Traversal, parts: list[_Part]) -> _Frame:
@@ -349,6 +392,9 @@ class UsdSceneSource:
                     local_camera(read_camera(prim, t, self.diagnostics), prev.origin) if vary else old
                     for prim, vary, old in zip(trav.cameras, trav.cameras_vary, prev.cameras)
                 ]
+            if trav.lights_vary or (self._headlit and any(trav.cameras_vary)):  # re-aim the headlight
+                stage_lights = (lights, environment) if trav.lights_vary else ([], None)
+                lights, environment = self._lighting(*stage_lights, cameras[0])
         finally:
             self.images.finish()
         scene = replace(  # what did not change is the previous scene's own object (arrays, lists)
@@ -365,6 +411,8 @@ class UsdSceneSource:
         )
         if not patch.finite:
             validate_scene(scene)  # raises naming the prim, as the full evaluation does
+        elif frame.dynamic or trav.lights_vary or any(trav.cameras_vary):
+            check_extent(scene)  # what moved may have left the representable range
         _freeze(scene)
         frame.scene, frame.parts, frame.trav = scene, parts, replace(trav, items=items)
         return scene
@@ -409,7 +457,7 @@ class UsdSceneSource:
             if hidden or (pinfo is not None and pinfo.purpose in _SKIPPED_PURPOSES):
                 continue
             name = str(path)
-            if prim.IsA(UsdGeom.Mesh):
+            if is_drawn(prim):
                 self._check_mesh_features(prim, unauthored_subdiv)
                 m = _matrix(xcache.GetLocalToWorldTransform(prim))[None]
                 items.append(_Item(name, prim, _source_key(prim), m, xanim, [name]))
@@ -446,8 +494,10 @@ class UsdSceneSource:
     def _check_mesh_features(self, prim: Usd.Prim, unauthored_subdiv: list[str]) -> None:
         diag = self.diagnostics
         name = str(prim.GetPath())
-        scheme = UsdGeom.Mesh(prim).GetSubdivisionSchemeAttr()
-        if not scheme.HasAuthoredValue():
+        scheme = UsdGeom.Mesh(prim).GetSubdivisionSchemeAttr() if prim.IsA(UsdGeom.Mesh) else None
+        if scheme is None:
+            pass  # an implicit prim: no subdivision
+        elif not scheme.HasAuthoredValue():
             unauthored_subdiv.append(name)
         elif scheme.Get() != UsdGeom.Tokens.none:
             diag.warn(f"subdivisionScheme {scheme.Get()!r} is not supported; rendered as its control cage", name)
@@ -554,7 +604,7 @@ class UsdSceneSource:
             if prim.IsA(UsdGeom.PointInstancer):
                 diag.warn("nested PointInstancers are not supported; skipped", name)
                 it.PruneChildren()
-            elif prim.IsA(UsdGeom.Mesh):
+            elif is_drawn(prim):
                 self._check_mesh_features(prim, [])
                 rel, _resets = xcache.ComputeRelativeTransform(prim, proto)
                 animated = False
@@ -575,39 +625,52 @@ class UsdSceneSource:
             return cached
         local = self._local.get(item.source)
         if local is None:
-            local = read_local_mesh(item.prim, time, self.path, self.diagnostics, self._may_animate)
+            local = self._read_local(item, time)
             if not local.time_varying:
                 self._local[item.source] = local
         if not np.isfinite(item.matrices).all():
             raise SceneError(self.path, "its local-to-world transform is not finite", item.names[0])
-        tri_material, varname, textured = self._triangle_materials(item.prim, local)
+        tri_material, varname, textured, colour_source = self._triangle_materials(item.prim, local)
         uvs = corner_uvs(local, item.prim, varname, time, self.diagnostics, textured)
-        world = to_world(local, uvs, item.matrices)
+        colours = None
+        if colour_source is not None:
+            colours = corner_colors(local, item.prim, colour_source, time, self.diagnostics)
+        world = to_world(local, uvs, item.matrices, colours)
         animated = local.time_varying or item.animated
         part = _Part(world, np.tile(tri_material, item.matrices.shape[0]), item.names, animated)
         if not animated:
             self._parts[item.key] = part
         return part
 
+    def _read_local(self, item: _Item, time: float) -> LocalMesh:
+        """The item's prim in its local space; a malformed mesh is skipped with a
+        warning naming it (an empty mesh), or raises when the source is strict."""
+        try:
+            return read_gprim(item.prim, time, self.path, self.diagnostics, self._may_animate)
+        except MalformedMeshError as exc:
+            if self.strict:
+                raise
+            self._skipped.add(item.source)
+            self.diagnostics.warn(f"malformed mesh skipped, nothing of it is drawn: {exc.problem}", exc.prim)
+            return empty_mesh(item.prim)
+
     def _mesh_material(self, prim: Usd.Prim, material: UsdShade.Material | None, double_sided: bool) -> int:
         lib = self._materials
         if material is not None:
             return lib.index(material, double_sided)
-        pv = UsdGeom.PrimvarsAPI(prim).FindPrimvarWithInheritance("displayColor")
-        if pv and pv.HasAuthoredValue():
-            values = np.asarray(pv.ComputeFlattened(Usd.TimeCode(lib.time)) or [], dtype=np.float64).reshape(-1, 3)
-            if len(values):
-                if len(values) > 1:
-                    self.diagnostics.warn(
-                        "displayColor varies over the mesh; its mean is used as the albedo", str(prim.GetPath())
-                    )
-                colour = values.mean(axis=0)
-                return lib.display_color(str(prim.GetPath()), tuple(float(c) for c in colour), double_sided)
+        colour, varies = read_display_color(prim, lib.time)
+        if varies:  # followed per corner (``primvars``)
+            return lib.vertex_colored(DISPLAY_COLOR, double_sided)
+        if colour is not None:
+            return lib.display_color(str(prim.GetPath()), colour, double_sided)
         return lib.default(double_sided)
 
-    def _triangle_materials(self, prim: Usd.Prim, local: LocalMesh) -> tuple[np.ndarray, str, bool]:
+    def _triangle_materials(
+        self, prim: Usd.Prim, local: LocalMesh
+    ) -> tuple[np.ndarray, str, bool, PrimvarInput | None]:
         """Per-triangle material indices (GeomSubset bindings honoured), the uv
-        primvar their textures read and whether any of them is textured."""
+        primvar their textures read, whether any of them is textured, and the colour
+        primvar their vertex-coloured materials follow (None when none does)."""
         lib = self._materials
         ds = local.double_sided
         mesh_index = self._mesh_material(prim, bound_material(prim), ds)
@@ -630,7 +693,14 @@ class UsdSceneSource:
             tri = face[local.tri_face]
         textured = [i for i in used if _has_texture(lib.materials[i])]
         varname = lib.uv_primvar[textured[0]] if textured else lib.uv_primvar[mesh_index]
-        return tri, varname, bool(textured)
+        coloured = [lib.materials[i] for i in dict.fromkeys(used) if lib.materials[i].is_vertex_colored]
+        source = PrimvarInput(coloured[0].diffuse_primvar, coloured[0].diffuse) if coloured else None
+        if len({m.diffuse_primvar for m in coloured}) > 1:
+            self.diagnostics.warn(
+                f"its materials follow several colour primvars; only {coloured[0].diffuse_primvar!r} is read",
+                str(prim.GetPath()),
+            )
+        return tri, varname, bool(textured), source
 
     def _assemble(self, parts: list[_Part], time: float, origin: np.ndarray) -> Scene:
         """The parts' flat arrays, points in the frame of ``origin`` (``scene.local_frame``)."""
@@ -641,6 +711,8 @@ class UsdSceneSource:
         normals = np.empty((n_tris, 3, 3), dtype=np.float32)
         uvs = np.empty((n_tris, 3, 2), dtype=np.float32)
         materials = np.empty((n_tris,), dtype=np.int32)
+        coloured = any(p.world.corner_colors is not None for p in parts)
+        colours = np.zeros((n_tris if coloured else 0, 3, 3), dtype=np.float32)
         ranges: list[MeshRange] = []
         pb = tb = 0
         for p in parts:
@@ -651,6 +723,8 @@ class UsdSceneSource:
             normals[tb : tb + t] = w.corner_normals
             uvs[tb : tb + t] = w.corner_uvs
             materials[tb : tb + t] = p.triangle_material
+            if w.corner_colors is not None:
+                colours[tb : tb + t] = w.corner_colors
             pn, tn = n // w.instances, t // w.instances
             for k, name in enumerate(p.names):
                 ranges.append(MeshRange(name, tb + k * tn, tn, pb + k * pn, pn, p.animated))
@@ -672,6 +746,7 @@ class UsdSceneSource:
             meters_per_unit=info.meters_per_unit,
             up_axis=info.up_axis,
             origin=origin,
+            corner_colors=colours,
         )
 
 
@@ -685,7 +760,8 @@ def _world_bounds(parts: list[_Part]) -> tuple[np.ndarray, np.ndarray]:
     return lo, hi
 
 
-def load_scene(path: str | os.PathLike, time: float | None = None) -> Scene:
+def load_scene(path: str | os.PathLike, time: float | None = None, strict: bool = False) -> Scene:
     """Load the USD file ``path`` as a ``Scene`` at ``time`` (default: the start of its
-    time range, or 0).  Raises ``SceneError`` naming the file (and prim) for bad input."""
-    return UsdSceneSource(path).scene_at(time)
+    time range, or 0).  Raises ``SceneError`` naming the file (and prim) for bad input;
+    ``strict``: a malformed mesh too (else it is skipped with a warning)."""
+    return UsdSceneSource(path, strict=strict).scene_at(time)

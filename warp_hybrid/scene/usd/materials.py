@@ -11,15 +11,20 @@ useSpecularWorkflow, metallic, roughness, opacity, opacityThreshold and ior are 
 constants or, for diffuse/emissive/roughness/metallic/opacity, from a ``UsdUVTexture``
 (file resolved by pxr relative to the layer that authored it; sourceColorSpace;
 wrapS/wrapT; scale/bias; the connected output picks the channel) whose ``st`` comes
-from a ``UsdPrimvarReader_float2``.  A textured slot's constant keeps the input's
+from a ``UsdPrimvarReader_float2``, through any ``UsdTransform2d`` nodes (their
+composed affine map goes to the binding, ``texture_transform``).  A UsdUVTexture
+with no file gives its ``fallback`` (times scale, plus bias) as a constant.
+``diffuseColor`` fed by a ``UsdPrimvarReader_float3``/``_float`` follows that primvar
+per corner (``Material.diffuse_primvar``); other inputs fed by a primvar reader take
+the reader's fallback (warned).  A textured slot's constant keeps the input's
 schema default: the texture replaces it.  ``wrap = useMetadata`` means repeat
 (OpenCV exposes no wrap metadata).  Material ``customData`` ``sa:thinWalled``,
 ``sa:attenuationColor`` and ``sa:attenuationDistance`` fill the volume fields.
 ``doubleSided`` comes from the mesh, so one USD material can give two entries.
 
 Parameters are read once per source (at the first time code evaluated).  Anything
-else (other shader types, normal maps, displacement, clearcoat, occlusion, texture
-transforms, textures on unsupported inputs) is reported once per material.
+else (other shader types, normal maps, displacement, clearcoat, occlusion, textures
+on unsupported inputs) is reported once per material.
 """
 
 from __future__ import annotations
@@ -30,6 +35,8 @@ import numpy as np
 from pxr import Sdf, Usd, UsdShade
 
 from ..model import Material, Wrap
+from .primvars import PRIMVAR_READERS, PrimvarInput, primvar_input
+from .texture_transform import UV_TRANSFORM_ID, as_rows, transform2d_matrix
 from .textures import ImageLibrary
 from .validate import Diagnostics
 
@@ -101,6 +108,14 @@ class MaterialLibrary:
             return self._index[key]
         return self._add(key, Material("<default>", double_sided=double_sided), DEFAULT_UV_SET)
 
+    def vertex_colored(self, primvar: str, double_sided: bool) -> int:
+        """The default material with its diffuse colour from the colour ``primvar`` per
+        corner (an unbound mesh whose displayColor varies over it)."""
+        key = (f"<{primvar} per corner>", double_sided)
+        if key in self._index:
+            return self._index[key]
+        return self._add(key, Material(key[0], diffuse_primvar=primvar, double_sided=double_sided), DEFAULT_UV_SET)
+
     def display_color(self, mesh_path: str, color: tuple[float, float, float], double_sided: bool) -> int:
         """A material for an unbound mesh whose albedo is its displayColor."""
         key = (f"{mesh_path}:displayColor", double_sided)
@@ -143,6 +158,9 @@ class MaterialLibrary:
 
         def colour(name: str, default: tuple[float, float, float]) -> tuple[tuple[float, float, float], int]:
             value, tex = self._slot(shader, name, path, is_colour=True, texturable=True)
+            if isinstance(value, PrimvarInput):  # only diffuseColor follows a primvar (see _primvar_slot)
+                m.diffuse_primvar = value.varname
+                return value.fallback, -1
             if tex is not None:
                 refs.append(tex)
                 return default, tex.binding
@@ -218,6 +236,10 @@ class MaterialLibrary:
         node = UsdShade.Shader(attr.GetPrim())
         output = UsdShade.Utils.GetBaseNameAndType(attr.GetName())[0]
         node_id = node.GetShaderId() if node else None
+        if node_id in PRIMVAR_READERS:
+            return self._primvar_slot(node, name, path, is_colour), None
+        if node_id == "UsdUVTexture" and not self._asset(node)[1]:
+            return self._texture_fallback(node, str(output), is_colour), None
         if node_id != "UsdUVTexture":
             self.diag.warn(
                 f"input {name} is fed by {attr.GetPath()} ({node_id!r}); only UsdUVTexture is supported, using the default",
@@ -231,6 +253,32 @@ class MaterialLibrary:
             )
             return None, None
         return None, self._texture(node, str(output), path, name, is_colour)
+
+    def _primvar_slot(self, node: UsdShade.Shader, name: str, path: str, is_colour: bool) -> object:
+        """Input ``name`` fed by the primvar reader ``node``: a ``PrimvarInput`` for
+        diffuseColor (per-corner colours), else the reader's fallback (warned)."""
+        reader = primvar_input(node, self.time)
+        if name == "diffuseColor" and reader.varname:
+            return reader
+        if reader.varname:
+            self.diag.warn(
+                f"input {name} reads primvar {reader.varname!r} ({node.GetPath()}); only diffuseColor follows "
+                f"primvars, using the reader's fallback {reader.fallback if is_colour else reader.fallback[0]}",
+                path,
+            )
+        return reader.fallback if is_colour else reader.fallback[0]
+
+    def _texture_fallback(self, node: UsdShade.Shader, output: str, is_colour: bool) -> object:
+        """A UsdUVTexture with no file: its ``fallback`` (default (0, 0, 0, 1)) times its
+        scale plus its bias, the channel of ``output`` (rgb for a colour input)."""
+        fallback = np.asarray(self._node_value(node, "fallback", (0.0, 0.0, 0.0, 1.0)), dtype=np.float64)
+        scale = np.asarray(self._node_value(node, "scale", (1.0, 1.0, 1.0, 1.0)), dtype=np.float64)
+        bias = np.asarray(self._node_value(node, "bias", (0.0, 0.0, 0.0, 0.0)), dtype=np.float64)
+        value = fallback * scale + bias
+        channel = _CHANNELS.get(output, -1)
+        if channel >= 0:
+            return (float(value[channel]),) * 3 if is_colour else float(value[channel])
+        return tuple(float(v) for v in value[:3]) if is_colour else float(value[0])
 
     def _node_value(self, node: UsdShade.Shader, name: str, default: object) -> object:
         inp = node.GetInput(name)
@@ -276,30 +324,36 @@ class MaterialLibrary:
             scale = (scale[channel],) * 3 + (scale[3],)
             bias = (bias[channel],) * 3 + (bias[3],)
         image = self.images.image(resolved, authored, colour_space, path, broadcast)
-        binding = self.images.binding(image, wraps[0], wraps[1], scale, bias)
-        return _TextureRef(binding, max(channel, 0), self._varname(node, path))
+        varname, uv_transform = self._uv_source(node, path)
+        binding = self.images.binding(image, wraps[0], wraps[1], scale, bias, uv_transform)
+        return _TextureRef(binding, max(channel, 0), varname)
 
-    def _varname(self, texture: UsdShade.Shader, path: str) -> str:
-        """The primvar a texture's ``st`` reads: follow the connection to a
-        ``UsdPrimvarReader_float2`` (through a ``UsdTransform2d``, which is ignored)."""
+    def _uv_source(self, texture: UsdShade.Shader, path: str) -> tuple[str, tuple[float, ...]]:
+        """The primvar a texture's ``st`` reads and the uv transform on the way: follow
+        the connection through ``UsdTransform2d`` nodes (composed, see
+        ``texture_transform``) to a ``UsdPrimvarReader_float2``."""
         node = texture
         input_name = "st"
-        for _ in range(4):
+        matrix = np.eye(3)
+        for _ in range(8):
             inp = node.GetInput(input_name)
             attrs = inp.GetValueProducingAttributes(False) if inp else []
             if not attrs or not _is_output(attrs[0]):
                 self.diag.warn(
                     f"texture {texture.GetPath()} has no primvar reader on st; reading {DEFAULT_UV_SET!r}", path
                 )
-                return DEFAULT_UV_SET
+                return DEFAULT_UV_SET, as_rows(matrix)
             node = UsdShade.Shader(attrs[0].GetPrim())
             node_id = node.GetShaderId()
-            if node_id == "UsdTransform2d":
-                self.diag.warn(f"UsdTransform2d {node.GetPath()} (uv transform) is not supported, ignored", path)
+            if node_id == UV_TRANSFORM_ID:
+                matrix = matrix @ transform2d_matrix(node, self.time)
                 input_name = "in"
                 continue
             if node_id != "UsdPrimvarReader_float2":
                 self.diag.warn(f"texture st is fed by {node.GetPath()} ({node_id!r}); reading {DEFAULT_UV_SET!r}", path)
-                return DEFAULT_UV_SET
-            return str(self._node_value(node, "varname", DEFAULT_UV_SET)) or DEFAULT_UV_SET
-        return DEFAULT_UV_SET
+                return DEFAULT_UV_SET, as_rows(matrix)
+            return str(self._node_value(node, "varname", DEFAULT_UV_SET)) or DEFAULT_UV_SET, as_rows(matrix)
+        self.diag.warn(
+            f"texture {texture.GetPath()} st goes through more than 7 nodes; reading {DEFAULT_UV_SET!r}", path
+        )
+        return DEFAULT_UV_SET, as_rows(matrix)

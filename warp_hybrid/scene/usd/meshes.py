@@ -29,6 +29,12 @@ from pxr import Sdf, Usd, UsdGeom
 from ...errors import SceneError
 from .validate import Diagnostics, check_points, check_primvar, check_topology
 
+
+class MalformedMeshError(SceneError):
+    """A mesh whose topology cannot be drawn (bad counts, indices outside the points);
+    the loader skips such a mesh with a warning unless it is strict."""
+
+
 _UV_TYPES = {
     Sdf.ValueTypeNames.TexCoord2fArray,
     Sdf.ValueTypeNames.Float2Array,
@@ -333,7 +339,10 @@ def read_local_mesh(prim: Usd.Prim, time: float, path: str, diag: Diagnostics, m
     counts = _array(prim.GetAttribute("faceVertexCounts"), t, np.int64, (-1,))
     fvi = _array(prim.GetAttribute("faceVertexIndices"), t, np.int64, (-1,))
     check_points(points, path, name)
-    check_topology(counts, fvi, len(points), path, name)
+    try:
+        check_topology(counts, fvi, len(points), path, name)
+    except SceneError as exc:
+        raise MalformedMeshError(path, exc.problem, name) from None
     degenerate = int((counts < 3).sum()) if counts.size and counts.min() < 3 else 0
     if degenerate:
         diag.warn(f"{degenerate} faces have fewer than 3 vertices; skipped", name)
@@ -412,11 +421,7 @@ def corner_uvs(
                 f"primvar {varname!r} (read by its material's textures) is missing; reading {pv.GetPrimvarName()!r}",
                 name,
             )
-        points = len(local.points)
-        topo = _Topology(
-            local.face_count, points, local.face_vertex_count, local.tri_corner, local.tri_points, local.tri_face
-        )
-        uvs = _read_primvar(pv, pv.GetInterpolation(), Usd.TimeCode(time), topo, 2, diag, name, "uv (0, 0)")
+        uvs = corner_primvar(local, pv, time, 2, diag, "uv (0, 0)")
     elif needed:
         diag.warn(f"mesh has no uv primvar ({varname!r}) but its material is textured; uv = (0, 0)", name)
     if uvs is None:
@@ -424,6 +429,19 @@ def corner_uvs(
     uvs = uvs.astype(np.float32)
     local.uvs[varname] = uvs
     return uvs
+
+
+def corner_primvar(
+    local: LocalMesh, primvar: UsdGeom.Primvar, time: float, width: int, diag: Diagnostics, fallback: str
+) -> np.ndarray | None:
+    """``primvar`` of ``local``'s prim at its triangle corners (T, 3, ``width``), with
+    any interpolation, indexed or not; None (warned, naming ``fallback``) when its
+    values do not fit the mesh."""
+    topo = _Topology(
+        local.face_count, len(local.points), local.face_vertex_count, local.tri_corner, local.tri_points, local.tri_face
+    )
+    interpolation = primvar.GetInterpolation()
+    return _read_primvar(primvar, interpolation, Usd.TimeCode(time), topo, width, diag, local.prim_path, fallback)
 
 
 # -- world space ---------------------------------------------------------------------------------
@@ -436,7 +454,8 @@ class WorldMesh:
     ``points`` (K*N, 3), float64 when a matrix placed them (the loader takes them into
     its local frame before rounding to float32, ``scene.local_frame``), the local
     float32 points under an identity matrix; ``tri_points`` (K*T, 3) index into
-    ``points``; corner normals/uvs (K*T, 3, k).  ``instances`` is K.
+    ``points``; corner normals/uvs (K*T, 3, k).  ``instances`` is K.  ``corner_colors``
+    (K*T, 3, 3): the per-corner colours a vertex-coloured material reads, or None.
     """
 
     points: np.ndarray
@@ -444,11 +463,13 @@ class WorldMesh:
     corner_normals: np.ndarray
     corner_uvs: np.ndarray
     instances: int
+    corner_colors: np.ndarray | None = None
 
 
-def to_world(local: LocalMesh, uvs: np.ndarray, matrices: np.ndarray) -> WorldMesh:
+def to_world(local: LocalMesh, uvs: np.ndarray, matrices: np.ndarray, colors: np.ndarray | None = None) -> WorldMesh:
     """Place ``local`` with each of ``matrices`` (K, 4, 4) USD row-vector
-    local-to-world transforms (``p_world = [p, 1] @ M``).
+    local-to-world transforms (``p_world = [p, 1] @ M``); per-corner ``colors``
+    (T, 3, 3), when given, follow the corners as the uvs do.
 
     Points use the matrix, normals its inverse transpose; a mirroring matrix
     (negative determinant) flips the winding so triangles stay counter-clockwise
@@ -457,7 +478,7 @@ def to_world(local: LocalMesh, uvs: np.ndarray, matrices: np.ndarray) -> WorldMe
     k = matrices.shape[0]
     n, t = len(local.points), local.triangle_count
     if k == 1 and np.array_equal(matrices[0], np.eye(4)):
-        return WorldMesh(local.points, local.tri_points, local.corner_normals, uvs, 1)
+        return WorldMesh(local.points, local.tri_points, local.corner_normals, uvs, 1, colors)
     m3 = matrices[:, :3, :3]
     pts = np.einsum("nj,kji->kni", local.points.astype(np.float64), m3) + matrices[:, None, 3, :3]
     det = np.linalg.det(m3)
@@ -467,16 +488,20 @@ def to_world(local: LocalMesh, uvs: np.ndarray, matrices: np.ndarray) -> WorldMe
     nrm = _normalised(nrm)
     tri = np.broadcast_to(local.tri_points, (k, t, 3)) + (np.arange(k, dtype=np.int64) * n)[:, None, None]
     uv = np.broadcast_to(uvs, (k, t, 3, 2))
+    col = None if colors is None else np.broadcast_to(colors, (k, t, 3, 3))
     flip = det < 0
     if flip.any():
         perm = [0, 2, 1]
         tri = np.where(flip[:, None, None], tri[:, :, perm], tri)
         nrm = np.where(flip[:, None, None, None], nrm[:, :, perm], nrm)
         uv = np.where(flip[:, None, None, None], uv[:, :, perm], uv)
+        if col is not None:
+            col = np.where(flip[:, None, None, None], col[:, :, perm], col)
     return WorldMesh(
         points=pts.reshape(-1, 3),
         tri_points=tri.reshape(-1, 3).astype(np.int32),
         corner_normals=nrm.reshape(-1, 3, 3).astype(np.float32),
         corner_uvs=np.ascontiguousarray(uv.reshape(-1, 3, 2), dtype=np.float32),
         instances=k,
+        corner_colors=None if col is None else np.ascontiguousarray(col.reshape(-1, 3, 3), dtype=np.float32),
     )

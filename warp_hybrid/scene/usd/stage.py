@@ -8,12 +8,12 @@ is not USD becomes a ``SceneError`` naming the file.
 from __future__ import annotations
 
 import os
-import re
 from dataclasses import dataclass
 
 from pxr import Tf, Usd, UsdGeom
 
 from ...errors import SceneError
+from .pxr_text import strip_namespaces, tf_message
 from .validate import Diagnostics
 
 USD_SUFFIXES = (".usd", ".usda", ".usdc", ".usdz")
@@ -43,13 +43,6 @@ class StageInfo:
         return self.default_time + seconds * self.time_codes_per_second
 
 
-def _tf_reason(exc: Exception) -> str:
-    """The first quoted message of a ``Tf.ErrorException`` (pxr wraps the useful text
-    in quotes after a long C++ location)."""
-    found = re.findall(r"'([^']+)'", str(exc))
-    return found[0] if found else str(exc).strip()
-
-
 def open_stage(path: str | os.PathLike, diag: Diagnostics | None = None) -> Usd.Stage:
     """Open ``path`` with pxr (everything loaded, all composition done by pxr).
 
@@ -64,7 +57,7 @@ def open_stage(path: str | os.PathLike, diag: Diagnostics | None = None) -> Usd.
     try:
         stage = Usd.Stage.Open(p, Usd.Stage.LoadAll)
     except Tf.ErrorException as exc:
-        raise SceneError(p, f"not a readable USD file ({_tf_reason(exc)})") from None
+        raise SceneError(p, f"not a readable USD file ({tf_message(exc)})") from None
     if stage is None:
         raise SceneError(p, "pxr could not open this file as a USD stage")
     if diag is not None:
@@ -76,7 +69,7 @@ def report_composition_errors(stage: Usd.Stage, diag: Diagnostics) -> None:
     """Turn pxr's composition errors (missing sublayers, references, payloads) into
     warnings: pxr skips the broken arc, so the scene still loads without it."""
     for err in stage.GetCompositionErrors():
-        diag.warn(f"composition error: {err}")
+        diag.warn(f"composition error: {strip_namespaces(str(err))}")
 
 
 def read_stage_info(stage: Usd.Stage) -> StageInfo:

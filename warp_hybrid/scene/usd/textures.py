@@ -1,12 +1,13 @@
 """Texture images: decode files with OpenCV into linear (H, W, 4) float32, and keep
 one ``TextureImage`` per (file, colour space) plus deduplicated ``TextureBinding``s.
 
-Decoding: 8/16-bit integer and float images (PNG, JPEG, TGA, BMP, TIFF, Radiance
-``.hdr``, OpenEXR), 1-4 channels; BGR(A) becomes RGB(A); 1 channel is grey
-(rgb = value, alpha = 1); 2 channels are grey + alpha.  Integers are normalised to
-[0, 1].  sRGB-encoded images are decoded to linear (alpha stays linear).  Row 0 of the
-stored image is the top of the picture.  ``auto`` colour space means sRGB for 8-bit
-images with 3 or 4 channels, raw otherwise (UsdUVTexture semantics).
+Decoding (``images.decode_raw``: OpenCV, Pillow for TGA and CMYK JPEGs): 8/16-bit
+integer and float images (PNG, JPEG, TGA, BMP, TIFF, Radiance ``.hdr``, OpenEXR), 1-4
+channels; BGR(A) becomes RGB(A); 1 channel is grey (rgb = value, alpha = 1); 2
+channels are grey + alpha.  Integers are normalised to [0, 1].  sRGB-encoded images
+are decoded to linear (alpha stays linear).  Row 0 of the stored image is the top of
+the picture.  ``auto`` colour space: ``images.auto_is_srgb`` (sRGB for 8/16-bit
+images with 3 or 4 channels and for every JPEG, raw otherwise).
 
 A file that is missing or cannot be decoded is replaced by a 64x64 magenta/black
 checker (8x8-texel squares) and a warning naming the file and the prim that uses it.
@@ -25,6 +26,7 @@ os.environ.setdefault("OPENCV_IO_ENABLE_OPENEXR", "1")  # must be set before cv2
 import cv2  # noqa: E402
 
 from ..model import TextureBinding, TextureImage, Wrap  # noqa: E402
+from .images import auto_is_srgb, decode_raw  # noqa: E402
 from .validate import Diagnostics  # noqa: E402
 
 CHECKER_NAME = "<missing texture: magenta/black checker>"
@@ -67,15 +69,13 @@ def decode_image(data: bytes, color_space: str = "auto") -> tuple[np.ndarray, st
 
     ``color_space`` is ``sRGB``, ``raw`` or ``auto``; returns the pixels and the
     colour space actually applied (``sRGB`` or ``raw``).  Raises ``ValueError`` when
-    OpenCV cannot decode the data.
+    neither OpenCV nor Pillow can decode the data.
     """
-    raw = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_UNCHANGED | cv2.IMREAD_ANYDEPTH)
-    if raw is None or raw.size == 0:
-        raise ValueError("OpenCV cannot decode this image")
+    raw, jpeg = decode_raw(data)
     if raw.ndim == 2:
         raw = raw[:, :, None]
     channels = raw.shape[2]
-    srgb = color_space == "sRGB" or (color_space == "auto" and raw.dtype == np.uint8 and channels >= 3)
+    srgb = color_space == "sRGB" or (color_space == "auto" and auto_is_srgb(raw.dtype, channels, jpeg))
     if channels == 2:  # grey + alpha: OpenCV has no conversion for it
         rgba = np.ascontiguousarray(raw[..., [0, 0, 0, 1]])
     else:
@@ -151,7 +151,8 @@ class ImageLibrary:
         naming the file and ``owner`` (the material or light prim), and yields the
         checker image.
         """
-        key = (resolved_path, color_space, broadcast)
+        # An unresolved file is keyed by its authored name, so each missing file is reported by name.
+        key = (resolved_path or f"<unresolved {authored_path}>", color_space, broadcast)
         if key in self._image_keys:
             return self._image_keys[key]
         index = len(self.images)
@@ -212,7 +213,7 @@ class ImageLibrary:
             t.image = remap.get(t.image, t.image)
         self._binding_keys = {}
         for i, t in enumerate(self.textures):
-            self._binding_keys.setdefault((t.image, int(t.wrap_s), int(t.wrap_t), t.scale, t.bias), i)
+            self._binding_keys.setdefault((t.image, int(t.wrap_s), int(t.wrap_t), t.scale, t.bias, t.uv_transform), i)
 
     def binding(
         self,
@@ -221,10 +222,12 @@ class ImageLibrary:
         wrap_t: Wrap = Wrap.REPEAT,
         scale: tuple[float, float, float, float] = (1.0, 1.0, 1.0, 1.0),
         bias: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0),
+        uv_transform: tuple[float, float, float, float, float, float] = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0),
     ) -> int:
         """Index of the ``TextureBinding`` with these fields (created once)."""
-        key = (image, int(wrap_s), int(wrap_t), tuple(scale), tuple(bias))
+        key = (image, int(wrap_s), int(wrap_t), tuple(scale), tuple(bias), tuple(uv_transform))
         if key not in self._binding_keys:
-            self.textures.append(TextureBinding(image, Wrap(wrap_s), Wrap(wrap_t), tuple(scale), tuple(bias)))
+            binding = TextureBinding(image, Wrap(wrap_s), Wrap(wrap_t), tuple(scale), tuple(bias), tuple(uv_transform))
+            self.textures.append(binding)
             self._binding_keys[key] = len(self.textures) - 1
         return self._binding_keys[key]

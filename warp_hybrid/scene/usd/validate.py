@@ -19,6 +19,7 @@ import logging
 import numpy as np
 
 from ...errors import SceneError
+from ..local_frame import frame_problem
 from ..model import Scene
 
 LOG = logging.getLogger("warp_hybrid.scene")
@@ -111,12 +112,29 @@ def check_primvar(
     return True
 
 
+def check_extent(scene: Scene) -> None:
+    """Raise ``SceneError`` naming the file and the prim (the mesh of the point, the
+    camera or the light) when ``scene`` is beyond the representable range
+    (``scene.local_frame.frame_problem``)."""
+    found = frame_problem(scene.points, scene.cameras, scene.lights, np.asarray(scene.origin, dtype=np.float64))
+    if found is None:
+        return
+    problem, at = found
+    prim = (
+        at
+        if isinstance(at, str)
+        else next((r.prim_path for r in scene.meshes if r.first_point <= at < r.first_point + r.point_count), None)
+    )
+    raise SceneError(scene.path, problem, prim)
+
+
 def validate_scene(scene: Scene) -> None:
     """Check the flattened arrays of ``scene`` (shapes, dtypes, finiteness, index and
     material ranges) and raise ``SceneError`` naming the file and the mesh prim at fault.
 
     The loaders guarantee these already; this is the last gate before data reaches a
     kernel, so a bug or a hand-built ``Scene`` never turns into an out-of-bounds read.
+    Last, the scene must lie within the representable range (``check_extent``).
     """
     path = scene.path
     n, t = len(scene.points), scene.triangle_count
@@ -164,3 +182,4 @@ def validate_scene(scene: Scene) -> None:
             raise SceneError(
                 path, f"triangle {i} uses material {int(m[i])} of {len(scene.materials)}", prim_of_triangle(i)
             )
+    check_extent(scene)

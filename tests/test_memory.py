@@ -1,0 +1,59 @@
+"""The memory estimate (``warp_hybrid.memory``) against the arrays a renderer really
+holds: never below them, at most 1.5 times them."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import warp as wp
+
+from warp_hybrid import Renderer, RenderSettings, open_scene_source
+from warp_hybrid.memory import frame_bytes
+
+CORNELL = Path(__file__).resolve().parents[1] / "scenes" / "cornell_glass.usda"
+
+
+def _array_bytes(root: object) -> dict[int, int]:
+    """Bytes of every distinct Warp array reachable from ``root``'s attributes, by pointer."""
+    seen, found, stack = set(), {}, [root]
+    while stack:
+        obj = stack.pop()
+        if id(obj) in seen:
+            continue
+        seen.add(id(obj))
+        if isinstance(obj, wp.array):
+            ptr = getattr(obj, "ptr", None)  # a kernel-local fixedarray has none
+            if ptr is not None:
+                found[ptr] = obj.size * wp.types.type_size_in_bytes(obj.dtype)
+        elif isinstance(obj, dict):
+            stack.extend(obj.values())
+        elif isinstance(obj, (list, tuple, set)):
+            stack.extend(obj)
+        elif hasattr(obj, "__dict__") and not isinstance(obj, (type, np.ndarray)):
+            stack.extend(vars(obj).values())
+    return found
+
+
+@pytest.mark.parametrize(
+    "mode, threads, spp, fovea_spp",
+    [("raster", 1, 1, 1), ("hybrid", 2, 1, 1), ("full", 2, 1, 1), ("full", 1, 2, 1), ("hybrid", 1, 1, 2)],
+)
+def test_frame_estimate_covers_the_frame_buffers(mode: str, threads: int, spp: int, fovea_spp: int) -> None:
+    """Per pixel: the growth of the arrays held from 64x48 to 128x96 against the estimate's."""
+    scene = open_scene_source(CORNELL).scene_at(None)
+    held = []
+    for w, h in ((64, 48), (128, 96)):
+        settings = RenderSettings(width=w, height=h, mode=mode, threads=threads, spp=spp, fovea_spp=fovea_spp)
+        with Renderer(scene, settings) as renderer:
+            renderer.render(scene.cameras[0])
+            arrays = _array_bytes(renderer)
+            on_scene = _array_bytes(renderer.device_scene)
+            held.append(sum(n for ptr, n in arrays.items() if ptr not in on_scene))
+    grown = held[1] - held[0]
+    lights = len(scene.lights)
+    estimated = frame_bytes(128, 96, lights, threads, spp, fovea_spp) - frame_bytes(
+        64, 48, lights, threads, spp, fovea_spp
+    )
+    assert grown <= estimated <= 1.5 * grown, (grown / (128 * 96 - 64 * 48), estimated / (128 * 96 - 64 * 48))

@@ -15,6 +15,12 @@ from warp_hybrid.memory import frame_bytes
 CORNELL = Path(__file__).resolve().parents[1] / "scenes" / "cornell_glass.usda"
 
 
+def _ours(obj: object) -> bool:
+    """An object of this project (a pass, a buffer set, a Warp struct of ours) whose
+    attributes may hold arrays; other libraries' objects are not walked."""
+    return type(obj).__module__.startswith("warp_hybrid") or type(type(obj)).__module__.startswith("warp")
+
+
 def _array_bytes(root: object) -> dict[int, int]:
     """Bytes of every distinct Warp array reachable from ``root``'s attributes, by pointer."""
     seen, found, stack = set(), {}, [root]
@@ -31,7 +37,7 @@ def _array_bytes(root: object) -> dict[int, int]:
             stack.extend(obj.values())
         elif isinstance(obj, (list, tuple, set)):
             stack.extend(obj)
-        elif hasattr(obj, "__dict__") and not isinstance(obj, (type, np.ndarray)):
+        elif _ours(obj) and hasattr(obj, "__dict__") and not isinstance(obj, (type, np.ndarray)):
             stack.extend(vars(obj).values())
     return found
 

@@ -134,7 +134,9 @@ def test_render_on_a_budget_sizes_the_window_with_the_controller(tmp_path: Path)
     assert 0.01 <= budget["window_fraction"] <= 1.0 and budget["reason"] in {
         "warmup", "predict", "grow", "hold", "panic", "infeasible"
     }  # fmt: skip
-    assert budget["frame_ms"] > 0 and budget["traced_fraction"] <= budget["window_fraction"] + 1e-6
+    # the traced share counts whole pixels: at 64x48 it may exceed the planned area by up
+    # to half a percent of the screen (0.0054 at worst over all fractions), whatever the timing
+    assert budget["frame_ms"] > 0 and budget["traced_fraction"] <= budget["window_fraction"] + 0.006
 
 
 def test_replay_needs_an_output_and_a_positive_length(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:

@@ -18,6 +18,7 @@ psnr``, one row per frame in frame order, written atomically once all are measur
 from __future__ import annotations
 
 import csv
+import dataclasses
 import io
 import statistics
 import tempfile
@@ -106,22 +107,10 @@ class FrameErrors:
         )
 
     def _reference_settings(self) -> RenderSettings:
+        """The replay's settings as full ray tracing at ``spp`` samples per pixel (a fixed
+        exposure: each reference is exposed at its frame's own EV afterwards)."""
         rs = self.loop.renderer.settings
-        return RenderSettings(
-            width=rs.width,
-            height=rs.height,
-            device=rs.device,
-            mode="full",
-            primary=rs.primary,
-            max_depth=rs.max_depth,
-            shadow_samples=rs.shadow_samples,
-            exposure_ev=0.0,
-            tonemap=rs.tonemap,
-            antialias=rs.antialias,
-            threads=rs.threads,
-            spp=self.spp,
-            sample_seed=rs.sample_seed,
-        )
+        return dataclasses.replace(rs, mode="full", spp=self.spp, fovea_spp=1, exposure_ev=0.0)
 
     def measure(self, on_row: Callable[[], None] | None = None) -> list[dict[str, Any]]:
         """Every kept frame's error row (``ERROR_COLUMNS``), in frame order;

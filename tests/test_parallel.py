@@ -1,12 +1,15 @@
-"""The launch layer covers every pixel/item exactly once, whatever the thread count."""
+"""The launch layer covers every pixel/item exactly once, whatever the thread count, and
+shares the bands of a pass among its threads by who is free."""
 
 from __future__ import annotations
+
+import threading
 
 import numpy as np
 import pytest
 import warp as wp
 
-from warp_hybrid.parallel import Launcher
+from warp_hybrid.parallel import BANDS_PER_THREAD, Launcher, band, band_count
 
 
 @wp.kernel
@@ -28,7 +31,7 @@ def _count_items(out: wp.array(dtype=wp.int32), start: int, step: int):
 
 
 @pytest.mark.parametrize("threads", [1, 2, 3])
-@pytest.mark.parametrize(("height", "width"), [(1, 1), (2, 5), (7, 3), (48, 33)])
+@pytest.mark.parametrize(("height", "width"), [(1, 1), (2, 5), (7, 3), (48, 33), (481, 2)])
 def test_launch_pixels_covers_each_pixel_once(device: str, threads: int, height: int, width: int) -> None:
     out = wp.zeros((height, width), dtype=wp.int32, device=device)
     item_cols = wp.zeros((height, width), dtype=wp.int32, device=device)
@@ -49,12 +52,52 @@ def test_launch_pixels_skips_empty_images(device: str) -> None:
 
 
 @pytest.mark.parametrize("threads", [1, 2, 3])
-@pytest.mark.parametrize("count", [1, 5, 100])
+@pytest.mark.parametrize("count", [1, 5, 100, 9001])
 def test_launch_items_covers_each_item_once(device: str, threads: int, count: int) -> None:
     out = wp.zeros(count, dtype=wp.int32, device=device)
     with Launcher(device, threads) as launcher:
         launcher.launch_items(_count_items, count, [out])
     np.testing.assert_array_equal(out.numpy(), np.ones(count, np.int32))
+
+
+@pytest.mark.parametrize(("total", "bands"), [(1, 1), (7, 3), (480, 16), (481, 16), (5, 5)])
+def test_bands_tile_the_range_in_order(total: int, bands: int) -> None:
+    """Bands are contiguous, in order, cover 0..total-1 once and differ by at most one."""
+    parts = [band(k, bands, total) for k in range(bands)]
+    assert [first for first, _ in parts] == [sum(n for _, n in parts[:k]) for k in range(bands)]
+    assert sum(n for _, n in parts) == total
+    assert max(n for _, n in parts) - min(n for _, n in parts) <= 1
+
+
+def test_band_count_follows_the_threads_and_the_minimum_band() -> None:
+    assert band_count(480, 1, 4) == 1  # one thread: one launch
+    assert band_count(480, 2, 4) == 2 * BANDS_PER_THREAD
+    assert band_count(20, 2, 4) == 5  # no band under 4 rows
+    assert band_count(5, 2, 4) == 2  # but at least one band per thread
+    assert band_count(1, 3, 4) == 1  # and never more bands than rows
+    assert band_count(100, 2, 256) == 2
+
+
+def test_a_free_thread_takes_the_bands_a_busy_one_cannot() -> None:
+    """Thread 0's first band blocks until thread 1 has run every other band: thread 0
+    runs at most that one band, and every band runs once."""
+    bands = 16
+    ran: list[tuple[int, int]] = []
+    lock = threading.Lock()
+    others_done = threading.Event()
+
+    def launch_band(k: int, n: int, slot: int) -> None:
+        if slot == 0:
+            assert others_done.wait(timeout=30.0)
+        with lock:
+            ran.append((k, slot))
+            if slot == 1 and len(ran) >= bands - 1:  # all but the band thread 0 holds, if any
+                others_done.set()
+
+    with Launcher("cpu", 2) as launcher:
+        launcher._share(launch_band, bands)
+    assert sorted(k for k, _ in ran) == list(range(bands))
+    assert sum(1 for _, slot in ran if slot == 0) <= 1
 
 
 def test_run_propagates_exceptions(device: str) -> None:
@@ -91,10 +134,11 @@ def test_a_launch_profile_times_every_piece_by_kernel(device: str) -> None:
         assert launcher.run(busy) == [sum(range(20000)), sum(range(40000))]
         launcher.profile = None
         launcher.launch_items(_count_items, 100, [items])
-    pieces = {0} if wp.get_device(device).is_cuda else {0, 1}
+    slots = {0} if wp.get_device(device).is_cuda else {0, 1}
     pixels, listed = profile.kernels[_count_pixels.key], profile.kernels[_count_items.key]
     assert (pixels.launches, listed.launches) == (3, 1)
-    assert set(pixels.piece_ms) == pieces and set(listed.piece_ms) == {0, 1}
+    # bands go to whichever thread is free, so either thread may have run them all
+    assert set(pixels.piece_ms) <= slots and set(listed.piece_ms) <= slots
     run = profile.kernels["test_a_launch_profile_times_every_piece_by_kernel.<locals>.busy"]
     assert run.launches == 1 and run.piece_ms[1] > 0.0 and run.cpu_ms > 0.0
     assert 0.0 < run.balance <= 1.0

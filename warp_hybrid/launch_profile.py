@@ -2,7 +2,8 @@
 each host thread spent, so every speed claim names the kernel it moved.
 
 While a ``LaunchProfile`` is attached, every piece a ``Launcher`` runs (one ``wp.launch``
-of a kernel on one host thread, or one ``run`` piece) is timed on its own thread: wall
+of a band of a pass on one host thread, or one ``run`` piece) is timed on its own thread,
+summed by the thread (its *slot*) that ran it: wall
 time with ``time.perf_counter`` (after a device sync on CUDA, so it covers the work)
 and the thread's CPU time with ``time.thread_time`` (a CPU launch runs on the calling
 thread, so this is the kernel's own work, unaffected by other processes sharing the
@@ -23,7 +24,7 @@ from typing import Any
 
 @dataclass
 class KernelTimes:
-    """One kernel's (or run piece's) launches and time, in total and per piece index."""
+    """One kernel's (or run piece's) launches and time, in total and per thread slot."""
 
     launches: int = 0
     ms: float = 0.0
@@ -32,7 +33,7 @@ class KernelTimes:
 
     @property
     def balance(self) -> float:
-        """Mean over the busiest piece's time (1: perfectly balanced threads)."""
+        """Mean over the busiest thread's time (1: perfectly balanced threads)."""
         if not self.piece_ms:
             return 1.0
         busiest = max(self.piece_ms.values())
@@ -47,15 +48,16 @@ class LaunchProfile:
         self.kernels: dict[str, KernelTimes] = defaultdict(KernelTimes)
         self._lock = threading.Lock()
 
-    def record(self, name: str, piece: int, seconds: float, cpu_seconds: float) -> None:
-        """Add one piece of one launch of ``name``: its wall and thread CPU seconds
-        (thread-safe)."""
+    def record(self, name: str, slot: int, seconds: float, cpu_seconds: float, first: bool | None = None) -> None:
+        """Add one piece of a launch of ``name`` run on thread ``slot``: its wall and
+        thread CPU seconds (thread-safe); ``first`` (default: slot 0) marks the launch's
+        first piece, which counts the launch."""
         with self._lock:
             k = self.kernels[name]
             k.ms += seconds * 1000.0
             k.cpu_ms += cpu_seconds * 1000.0
-            k.piece_ms[piece] += seconds * 1000.0
-            if piece == 0:
+            k.piece_ms[slot] += seconds * 1000.0
+            if (slot == 0) if first is None else first:
                 k.launches += 1
 
     def timed(self, name: str, piece: int, fn: Callable[..., Any], *args: Any) -> Any:

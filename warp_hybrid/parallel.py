@@ -3,18 +3,23 @@
 A Warp CPU launch runs on one thread, but Warp releases the GIL while it runs, so
 launching disjoint pieces of a pass from two Python threads uses both cores.  Every
 per-pixel kernel takes ``row0, row_step, cols`` as its last three inputs
-(``launch_pixels``): on the CPU each launch item is one row, the rows
-``row0, row0 + row_step, ...`` of a piece (interleaved rows balance the load better
-than bands); on CUDA the same kernel source runs one thread per pixel.  1-D kernels
-(vertices, triangles, pixel lists) take ``start, step`` (``launch_items``).
+(``launch_pixels``): on the CPU each launch item is one row; 1-D kernels (vertices,
+triangles, pixel lists) take ``start, step`` (``launch_items``).  On the CPU a pass is
+cut into contiguous bands (of rows or items), several per thread (``band_count``), and
+each thread takes the next band not yet taken until none is left: whichever thread
+was slowed (a costlier part of the image, another process on its core) simply takes
+fewer bands, and neighbouring rows stay on one thread (the texels they share stay in
+its cache).  On CUDA the same kernel source runs one thread per pixel or item.
 
 Passes whose writes could collide (the visibility buffer) use ``Launcher.run`` with
 one output buffer per piece and merge them afterwards.  ``Launcher.profile`` (a
-``launch_profile.LaunchProfile``, None by default) times every piece by kernel.
+``launch_profile.LaunchProfile``, None by default) times every band by kernel and by
+the thread that ran it.
 """
 
 from __future__ import annotations
 
+import itertools
 import os
 import time
 from collections.abc import Callable, Sequence
@@ -24,6 +29,29 @@ from typing import Any
 import warp as wp
 
 from .launch_profile import LaunchProfile
+
+# Bands per thread in a CPU pass, and the fewest rows / items a band holds (a launch
+# costs ~20 us of Python, so tiny images and lists are not cut finer than this).
+BANDS_PER_THREAD = 8
+MIN_BAND_ROWS = 4
+MIN_BAND_ITEMS = 256
+
+
+def band_count(total: int, threads: int, minimum: int) -> int:
+    """How many contiguous bands a CPU pass over ``total`` rows or items is cut into
+    for ``threads`` threads: ``BANDS_PER_THREAD`` per thread, but no band under
+    ``minimum`` (unless that leaves fewer bands than threads), and never more bands
+    than rows or items."""
+    if threads <= 1:
+        return 1
+    return max(1, min(total, max(threads, min(threads * BANDS_PER_THREAD, total // minimum))))
+
+
+def band(k: int, bands: int, total: int) -> tuple[int, int]:
+    """Band ``k`` of ``bands`` over ``total`` rows or items: (first, count), the
+    sizes differing by at most one, in order."""
+    first = k * total // bands
+    return first, (k + 1) * total // bands - first
 
 
 def default_thread_count(device: wp.context.Device) -> int:
@@ -96,8 +124,8 @@ class Launcher:
         its launch item ``(r, c)`` (``wp.tid()``) handles image row ``row0 + r * row_step``,
         columns ``c * cols`` up to ``min((c + 1) * cols, width)``.  On the CPU an item is a
         whole row (``cols = width``; the big struct arguments are copied once per row,
-        not per pixel) and the rows are interleaved across the threads; on CUDA an
-        item is one pixel (``cols = 1``), one thread each.
+        not per pixel) and the rows go out in bands (module docstring); on CUDA an item
+        is one pixel (``cols = 1``), one thread each.
         """
         if height <= 0 or width <= 0:
             return
@@ -105,33 +133,66 @@ class Launcher:
         if self.device.is_cuda:
             self._launch(kernel, 0, (height, width), [*inputs, 0, 1, 1])
             return
-        n = min(self.threads, height)
 
-        def piece(k: int, count: int) -> None:
-            rows = (height - k + count - 1) // count
-            self._launch(kernel, k, (rows, 1), [*inputs, k, count, width])
+        def launch_band(k: int, bands: int, slot: int) -> None:
+            row0, rows = band(k, bands, height)
+            self._launch(kernel, slot, (rows, 1), [*inputs, row0, 1, width], first=k == 0)
 
-        self._map(piece, n)
+        self._share(launch_band, band_count(height, self.threads, MIN_BAND_ROWS))
 
     def launch_items(self, kernel: wp.Kernel, count: int, inputs: Sequence[Any]) -> None:
         """Launch a 1-D kernel over ``count`` items split across threads.
 
         The kernel's last two inputs must be ``start: int, step: int``; thread ``tid``
-        handles item ``start + tid * step``.
+        handles item ``start + tid * step`` (on the CPU, bands of consecutive items).
         """
         if count <= 0:
             return
         self.ensure_loaded(kernel)
-        n = min(self.threads, count)
+        if self.device.is_cuda:
+            self._launch(kernel, 0, count, [*inputs, 0, 1])
+            return
 
-        def piece(k: int, pieces: int) -> None:
-            items = (count - k + pieces - 1) // pieces
-            self._launch(kernel, k, items, [*inputs, k, pieces])
+        def launch_band(k: int, bands: int, slot: int) -> None:
+            start, items = band(k, bands, count)
+            self._launch(kernel, slot, items, [*inputs, start, 1], first=k == 0)
 
-        self._map(piece, n)
+        self._share(launch_band, band_count(count, self.threads, MIN_BAND_ITEMS))
 
-    def _launch(self, kernel: wp.Kernel, piece: int, dim: Any, inputs: list[Any]) -> None:
-        """One ``wp.launch`` (piece ``piece`` of a pass), timed by kernel when profiling."""
+    def launch_slots(self, kernel: wp.Kernel, count: int, inputs: Sequence[Any]) -> None:
+        """Launch a 1-D kernel that accumulates per thread: the last three inputs must be
+        ``slot: int, start: int, step: int``; each host thread (``slot`` 0, 1, ...) takes
+        one contiguous band of items, ``start + tid * step``, so no two threads ever add
+        to the same slot (Warp's CPU atomics are plain read-modify-writes).  On CUDA one
+        launch (slot 0) covers every item and the adds are atomic."""
+        if count <= 0:
+            return
+        self.ensure_loaded(kernel)
+        pieces = 1 if self.device.is_cuda else min(self.threads, count)
+
+        def piece(k: int, n: int) -> None:
+            start, items = band(k, n, count)
+            self._launch(kernel, k, items, [*inputs, k, start, 1])
+
+        self._map(piece, pieces)
+
+    def _share(self, launch_band: Callable[[int, int, int], None], bands: int) -> None:
+        """Run ``launch_band(k, bands, slot)`` for every band k, each thread (``slot``)
+        taking the next band left until none is (``next`` on a shared counter is atomic
+        under the GIL)."""
+        taken = itertools.count()
+
+        def worker(slot: int, _workers: int) -> None:
+            for k in iter(taken.__next__, None):
+                if k >= bands:
+                    return
+                launch_band(k, bands, slot)
+
+        self._map(worker, min(self.threads, bands))
+
+    def _launch(self, kernel: wp.Kernel, slot: int, dim: Any, inputs: list[Any], first: bool = True) -> None:
+        """One ``wp.launch`` (a band of a pass, on thread ``slot``; ``first``: the pass's
+        first band), timed by kernel when profiling."""
         profile = self.profile
         if profile is None:
             wp.launch(kernel, dim=dim, inputs=inputs, device=self.device)
@@ -140,4 +201,4 @@ class Launcher:
         wp.launch(kernel, dim=dim, inputs=inputs, device=self.device)
         if self.device.is_cuda:
             wp.synchronize_device(self.device)
-        profile.record(kernel.key, piece, time.perf_counter() - start, time.thread_time() - cpu)
+        profile.record(kernel.key, slot, time.perf_counter() - start, time.thread_time() - cpu, first)

@@ -14,7 +14,10 @@ the edge tests read one float per texel.  Per pixel:
    steeper gradient is the other half of the edge.
 3. Search along the edge (bilinear luma on the edge boundary, 12 steps of 1, 1, 1, 1,
    1, 1.5, 2, 2, 2, 2, 4, 8 pixels) until the luma departs from the edge's mean by a
-   quarter of the local gradient on both ends.
+   quarter of the local gradient on both ends.  The search filters the luma buffer
+   itself, as FXAA filters its luma channel: luma is linear in the codes, so this is
+   the luma of the filtered colour up to float rounding, at one float per tap instead
+   of three codes.
 4. The blend offset perpendicular to the edge is ``0.5 - distance to the nearer end /
    edge length`` (only if that end's luma confirms the direction), or the sub-pixel
    aliasing estimate ``SUBPIX * smoothstep(|lowpass - centre| / range)^2`` if larger;
@@ -36,28 +39,20 @@ SUBPIX = wp.constant(0.5)
 SEARCH_STEPS = wp.constant(12)
 INV_255 = wp.constant(1.0 / 255.0)
 LUMA_WEIGHTS = (0.299, 0.587, 0.114)  # Rec. 601, as FXAA
-LUMA_R = wp.constant(LUMA_WEIGHTS[0])
-LUMA_G = wp.constant(LUMA_WEIGHTS[1])
-LUMA_B = wp.constant(LUMA_WEIGHTS[2])
-
-
-@wp.func(inline=True)
-def luma_srgb(c: wp.vec3) -> float:
-    """Luma of an sRGB-encoded colour (Rec. 601 weights, as FXAA)."""
-    return LUMA_R * c[0] + LUMA_G * c[1] + LUMA_B * c[2]
 
 
 def luma_table() -> np.ndarray:
-    """(256, 3) float32: the terms of ``luma_srgb`` for each 8-bit code and channel,
-    ``weight_c * (code * (1 / 255))`` in float32 exactly as the kernels round them."""
+    """(256, 3) float32: the terms of the luma (``LUMA_WEIGHTS`` . sRGB values in
+    [0, 1]) for each 8-bit code and channel, ``weight_c * (code * (1 / 255))`` in
+    float32."""
     scaled = np.arange(256, dtype=np.float32) * np.float32(1.0 / 255.0)
     return np.stack([np.float32(w) * scaled for w in LUMA_WEIGHTS], axis=-1)
 
 
 @wp.func(inline=True)
 def luma_of_codes(r: int, g: int, b: int, table: wp.array(dtype=wp.vec3)) -> float:
-    """Luma of the 8-bit sRGB codes (r, g, b) (``luma_srgb`` of the texel) from
-    ``luma_table``: the same float32 terms summed in the same order."""
+    """Luma of the 8-bit sRGB codes (r, g, b) from ``luma_table``: its three terms
+    summed in channel order."""
     return table[r][0] + table[g][1] + table[b][2]
 
 
@@ -95,6 +90,29 @@ def _bilinear(img: wp.array3d(dtype=wp.uint8), px: float, py: float) -> wp.vec3:
         bottom = _texel(img, x0, y0 + 1)
         if fx > 0.0:
             bottom = bottom * (1.0 - fx) + _texel(img, x0 + 1, y0 + 1) * fx
+        return top * (1.0 - fy) + bottom * fy
+    return top
+
+
+@wp.func(inline=True)
+def _bilinear_luma(luma: wp.array2d(dtype=float), px: float, py: float) -> float:
+    """Bilinear luma at continuous pixel coordinates (``_bilinear``'s taps, on the luma
+    buffer)."""
+    x = px - 0.5
+    y = py - 0.5
+    x0f = wp.floor(x)
+    y0f = wp.floor(y)
+    fx = x - x0f
+    fy = y - y0f
+    x0 = int(x0f)
+    y0 = int(y0f)
+    top = _luma(luma, x0, y0)
+    if fx > 0.0:
+        top = top * (1.0 - fx) + _luma(luma, x0 + 1, y0) * fx
+    if fy > 0.0:
+        bottom = _luma(luma, x0, y0 + 1)
+        if fx > 0.0:
+            bottom = bottom * (1.0 - fx) + _luma(luma, x0 + 1, y0 + 1) * fx
         return top * (1.0 - fy) + bottom * fy
     return top
 
@@ -173,23 +191,23 @@ def fxaa_edge(
     # ends are independent: each stops at its own first departure)
     p1x = bx - ox
     p1y = by - oy
-    end1 = luma_srgb(_bilinear(img, p1x, p1y)) - local_avg
+    end1 = _bilinear_luma(luma, p1x, p1y) - local_avg
     i = int(1)
     while i < SEARCH_STEPS and wp.abs(end1) < gradient_scaled:
         s = _search_step(i)
         p1x -= ox * s
         p1y -= oy * s
-        end1 = luma_srgb(_bilinear(img, p1x, p1y)) - local_avg
+        end1 = _bilinear_luma(luma, p1x, p1y) - local_avg
         i += 1
     p2x = bx + ox
     p2y = by + oy
-    end2 = luma_srgb(_bilinear(img, p2x, p2y)) - local_avg
+    end2 = _bilinear_luma(luma, p2x, p2y) - local_avg
     i = int(1)
     while i < SEARCH_STEPS and wp.abs(end2) < gradient_scaled:
         s = _search_step(i)
         p2x += ox * s
         p2y += oy * s
-        end2 = luma_srgb(_bilinear(img, p2x, p2y)) - local_avg
+        end2 = _bilinear_luma(luma, p2x, p2y) - local_avg
         i += 1
 
     d1 = cy - p1y

@@ -4,7 +4,7 @@ The tracing kernels leave per-item ray counts (shadow rays from the primary poin
 from secondary hits, reflection and refraction rays) in the tracer's scratch rows;
 ``tally_tiles`` adds them into a small (slots, tiles, 4) table: pixels traced, shadow,
 reflection and refraction rays per ``TILE_PX`` tile.  On the CPU each launch piece
-(host thread) owns one slot, since Warp's CPU atomics are plain read-modify-writes; on
+(host thread) owns one slot (``Launcher.launch_slots``), since Warp's CPU atomics are plain read-modify-writes; on
 CUDA one piece covers every item and the adds are atomic.  A frame reads the table
 once, after its image (``RayTally.counts`` for the totals, ``RayTally.tiles`` for the
 budget controller's cost map), so nothing inside a frame waits on the host.
@@ -31,20 +31,21 @@ def tally_tiles(
     height: int,
     tiles_x: int,
     tally: wp.array3d(dtype=wp.int32),
+    slot: int,
     start: int,
     step: int,
 ):
-    """Item ``start + tid * step`` of a traced pixel list into tally slot ``start``."""
+    """Item ``start + tid * step`` of a traced pixel list into tally slot ``slot``."""
     item = start + wp.tid() * step
     pixel = pixels[item]
     if pixel < 0 or pixel >= width * height:
         return
     y = pixel // width
     tile = (y // TILE_PX) * tiles_x + (pixel - y * width) // TILE_PX
-    wp.atomic_add(tally, start, tile, 0, 1)
-    wp.atomic_add(tally, start, tile, 1, counts[item, 0] + counts[item, 1])
-    wp.atomic_add(tally, start, tile, 2, counts[item, 2])
-    wp.atomic_add(tally, start, tile, 3, counts[item, 3])
+    wp.atomic_add(tally, slot, tile, 0, 1)
+    wp.atomic_add(tally, slot, tile, 1, counts[item, 0] + counts[item, 1])
+    wp.atomic_add(tally, slot, tile, 2, counts[item, 2])
+    wp.atomic_add(tally, slot, tile, 3, counts[item, 3])
 
 
 @dataclass

@@ -251,7 +251,7 @@ class Tracer(RenderPass):
                 self.launcher.launch_items(self.shadow_kernel, count, [scene.gpu, tf, visibility_out])
         with timer.stage("trace_secondary"):
             self.launcher.launch_items(self.path_kernel, count, [scene.gpu, scene.ambient, tf, color_out])
-        self.launcher.launch_items(
+        self.launcher.launch_slots(
             tally_tiles, count, [pixels, counts, gbuffer.width, gbuffer.height, tally.tiles_x, tally.table]
         )
         tally.items += count

@@ -3,8 +3,14 @@
 * ``camera_points_kernel`` (one thread per vertex): every point in camera space and,
   in front of the near plane, projected to the screen, so the triangles sharing a
   vertex reuse it (and see bit-identical corners).
-* ``coverage_kernel`` (one thread per triangle): trivial frustum rejects, clipping
-  (``clipping.py``) and coverage (``coverage.py``) into the per-thread key buffer.
+* ``cluster_bounds_kernel`` (one thread per cluster): the bounding box of each run of
+  ``CLUSTER_TRIANGLES`` consecutive triangles (meshes are stored whole, so a run is a
+  patch of one mesh), computed again only when the points move.
+* ``coverage_kernel`` (one thread per cluster): a cluster whose box lies wholly outside
+  one plane of the view frustum is skipped (its triangles would all fail the same
+  plane's trivial reject, so nothing changes but the cost); the others go triangle by
+  triangle through the trivial frustum rejects, clipping (``clipping.py``) and coverage
+  (``coverage.py``) into the per-thread key buffer.
 * ``resolve_kernel`` (per pixel): the smallest key over the key slices names the
   nearest triangle; ``hit_record.exact_hit`` gives the pixel's hit record.
 * ``raycast_kernel`` (per pixel): the reference path, ``wp.mesh_query_ray`` through
@@ -41,6 +47,12 @@ wp.set_module_options({"enable_backward": False})
 
 # Ray-cast path: at most this many cut-away hits are stepped past per pixel.
 MAX_CUTOUT_LAYERS = wp.constant(32)
+# Triangles per raster cluster (a launch item of the coverage pass).
+CLUSTER_TRIANGLES = wp.constant(64)
+# A box corner counts as outside a frustum plane only beyond this relative margin, far
+# above float32 rounding, so a cluster is never culled where a triangle of it would
+# pass the per-triangle test by rounding.
+CULL_MARGIN = wp.constant(1.0e-5)
 
 
 @wp.kernel
@@ -62,17 +74,64 @@ def camera_points_kernel(
 
 
 @wp.kernel
-def coverage_kernel(
-    scene: SceneGPU,
-    cam: CameraGPU,
-    pts: ProjectedPoints,
-    target: RasterTarget,
-    tri_start: int,
-    tri_step: int,
-):
-    """Rasterize triangles tri_start, tri_start + tri_step, ... (corners from
-    ``camera_points_kernel``) into ``target``."""
-    tri = tri_start + wp.tid() * tri_step
+def cluster_bounds_kernel(scene: SceneGPU, triangles: int, bounds: wp.array2d(dtype=wp.vec3), start: int, step: int):
+    """Clusters start, start + step, ...: the (lower, upper) corners of the bounding box
+    of their triangles' points into ``bounds[cluster]``."""
+    cluster = start + wp.tid() * step
+    first = cluster * CLUSTER_TRIANGLES
+    lower = scene.points[scene.indices[3 * first]]
+    upper = lower
+    for k in range(3 * first, 3 * wp.min(first + CLUSTER_TRIANGLES, triangles)):
+        p = scene.points[scene.indices[k]]
+        lower = wp.min(lower, p)
+        upper = wp.max(upper, p)
+    bounds[cluster, 0] = lower
+    bounds[cluster, 1] = upper
+
+
+@wp.func(inline=True)
+def _outside_planes(cam: CameraGPU, c: wp.vec3) -> int:
+    """The frustum planes camera-space point ``c`` lies beyond (by more than
+    ``CULL_MARGIN``), one bit each: near, far, right, left, top, bottom."""
+    x = c[0]
+    y = c[1]
+    z = c[2]
+    mx = CULL_MARGIN * (wp.abs(x) + cam.tan_x * wp.abs(z))
+    my = CULL_MARGIN * (wp.abs(y) + cam.tan_y * wp.abs(z))
+    mz = CULL_MARGIN * (wp.abs(z) + cam.near + cam.far)
+    bits = int(0)
+    if z < cam.near - mz:
+        bits = bits | 1
+    if z > cam.far + mz:
+        bits = bits | 2
+    if x > cam.tan_x * z + mx:
+        bits = bits | 4
+    if -x > cam.tan_x * z + mx:
+        bits = bits | 8
+    if y > cam.tan_y * z + my:
+        bits = bits | 16
+    if -y > cam.tan_y * z + my:
+        bits = bits | 32
+    return bits
+
+
+@wp.func(inline=True)
+def _box_culled(cam: CameraGPU, lower: wp.vec3, upper: wp.vec3) -> bool:
+    """Whether all 8 corners of the box lie beyond one common frustum plane."""
+    common = int(63)
+    for k in range(8):
+        corner = wp.vec3(
+            wp.where((k & 1) != 0, upper[0], lower[0]),
+            wp.where((k & 2) != 0, upper[1], lower[1]),
+            wp.where((k & 4) != 0, upper[2], lower[2]),
+        )
+        common = common & _outside_planes(cam, to_camera(cam, corner))
+    return common != 0
+
+
+@wp.func(inline=True)
+def _cover_triangle(scene: SceneGPU, cam: CameraGPU, pts: ProjectedPoints, target: RasterTarget, tri: int):
+    """Rasterize triangle ``tri`` (corners from ``camera_points_kernel``) into ``target``."""
     i0 = scene.indices[3 * tri]
     i1 = scene.indices[3 * tri + 1]
     i2 = scene.indices[3 * tri + 2]
@@ -104,6 +163,28 @@ def coverage_kernel(
             return
 
     raster_clipped(tri, scene, cam, pts, target)
+
+
+@wp.kernel
+def coverage_kernel(
+    scene: SceneGPU,
+    cam: CameraGPU,
+    pts: ProjectedPoints,
+    target: RasterTarget,
+    bounds: wp.array2d(dtype=wp.vec3),
+    triangles: int,
+    start: int,
+    step: int,
+):
+    """Rasterize the triangles of clusters start, start + step, ... (boxes in
+    ``bounds``; ``triangles`` in all) into ``target``, skipping clusters outside the
+    view frustum."""
+    cluster = start + wp.tid() * step
+    if _box_culled(cam, bounds[cluster, 0], bounds[cluster, 1]):
+        return
+    first = cluster * CLUSTER_TRIANGLES
+    for tri in range(first, wp.min(first + CLUSTER_TRIANGLES, triangles)):
+        _cover_triangle(scene, cam, pts, target, tri)
 
 
 @wp.func(inline=True)

@@ -3,10 +3,12 @@
 ``Rasterizer.find_hits`` runs two timed stages (the base class adds "surface"):
 
 * ``raster``: the points are transformed once (``kernels.camera_points_kernel``),
-  then every triangle is rasterized (``kernels.coverage_kernel``) into a *key buffer*
+  then every cluster of ``kernels.CLUSTER_TRIANGLES`` consecutive triangles that is not
+  wholly outside the view frustum (boxes from ``kernels.cluster_bounds_kernel``, kept
+  until the points move) is rasterized (``kernels.coverage_kernel``) into a *key buffer*
   of packed 64-bit keys (float32 view-depth bits << 32 | triangle id) with one atomic
   min per covered pixel centre (``coverage.py``).  On a CPU, Warp's atomics are plain
-  read-modify-writes and one launch runs on one thread, so the triangles are split
+  read-modify-writes and one launch runs on one thread, so the clusters are split
   between the launcher's threads and each thread owns one slice of the buffer; the
   resolve pass takes the minimum over the slices (no merge pass).
 * ``resolve``: per pixel, the winning triangle is intersected with the pixel's camera
@@ -40,6 +42,8 @@ class Rasterizer(PrimaryVisibility):
         super().__init__(launcher)
         self._keys: wp.array | None = None
         self._points: ProjectedPoints | None = None
+        self._bounds: wp.array | None = None
+        self._bounds_of: tuple[int, int] | None = None  # (id of the DeviceScene, its geometry_version)
 
     def _slices(self, height: int, width: int) -> wp.array:
         """The key buffer, one (height, width) slice per thread, reused."""
@@ -59,26 +63,39 @@ class Rasterizer(PrimaryVisibility):
         self.launcher.launch_items(kernels.camera_points_kernel, count, [scene.gpu, camera, self._points])
         return self._points
 
+    def _cluster_bounds(self, scene: DeviceScene) -> wp.array:
+        """The clusters' boxes (clusters, 2) vec3, computed again when the points moved."""
+        count = scene.scene.triangle_count
+        clusters = -(-count // kernels.CLUSTER_TRIANGLES)
+        key = (id(scene), scene.geometry_version)
+        if self._bounds is None or self._bounds.shape[0] != clusters or self._bounds_of != key:
+            if self._bounds is None or self._bounds.shape[0] != clusters:
+                self._bounds = wp.empty((clusters, 2), dtype=wp.vec3, device=self.launcher.device)
+            self.launcher.launch_items(kernels.cluster_bounds_kernel, clusters, [scene.gpu, count, self._bounds])
+            self._bounds_of = key
+        return self._bounds
+
     def _rasterize(self, scene: DeviceScene, camera: CameraGPU, keys: wp.array, mode: int, clear: int) -> None:
         """Transform the points, then run the coverage kernel, each thread on every
-        n-th triangle into its slice."""
+        n-th cluster into its slice."""
         launcher = self.launcher
         launcher.ensure_loaded(kernels.coverage_kernel)
         count = scene.scene.triangle_count
         pts = self._transform_points(scene, camera)
+        bounds = self._cluster_bounds(scene) if count > 0 else None
 
         def piece(k: int, n: int) -> None:
             keys[k].fill_(clear)
-            tris = (count - k + n - 1) // n
-            if tris > 0:
+            clusters = 0 if bounds is None else (bounds.shape[0] - k + n - 1) // n
+            if clusters > 0:
                 target = RasterTarget()
                 target.keys = keys
                 target.slot = k
                 target.mode = mode
                 wp.launch(
                     kernels.coverage_kernel,
-                    dim=tris,
-                    inputs=[scene.gpu, camera, pts, target, k, n],
+                    dim=clusters,
+                    inputs=[scene.gpu, camera, pts, target, bounds, count, k, n],
                     device=launcher.device,
                 )
 

@@ -12,7 +12,7 @@ from test_modes import H, W, mirror_scene
 
 from warp_hybrid.focus import FocusWindow
 from warp_hybrid.renderer import Renderer, RenderSettings
-from warp_hybrid.trace.guard import RINGS
+from warp_hybrid.trace.guard import MIN_RING_PIXELS, RINGS, ring_count
 
 
 class StepClock:
@@ -35,6 +35,15 @@ def _render(scene, mode, device, window=None, deadline=None, clock=None):
 
 
 WINDOW = FocusWindow(gaze=(0.4, 0.5), fraction=0.3, shape="circle", feather_px=4.0)
+WINDOW_RINGS = ring_count(WINDOW.layout(W, H).count)
+
+
+def test_a_small_window_is_traced_in_fewer_rings() -> None:
+    assert ring_count(RINGS * MIN_RING_PIXELS) == RINGS
+    assert ring_count(10**9) == RINGS
+    assert ring_count(3 * MIN_RING_PIXELS + 1) == 3
+    assert ring_count(MIN_RING_PIXELS - 1) == ring_count(0) == 1
+    assert WINDOW_RINGS >= 4  # the tests below cut this window into several rings
 
 
 def test_a_deadline_that_is_never_reached_traces_the_whole_window_exactly(device: str) -> None:
@@ -44,8 +53,8 @@ def test_a_deadline_that_is_never_reached_traces_the_whole_window_exactly(device
     np.testing.assert_array_equal(guarded.color, plain.color)
     np.testing.assert_array_equal(guarded.visibility, plain.visibility)
     assert guarded.stats["guard"] == {
-        "rings_traced": RINGS,
-        "rings": RINGS,
+        "rings_traced": WINDOW_RINGS,
+        "rings": WINDOW_RINGS,
         "planned_fraction": pytest.approx(plain.stats["window"]["covered_fraction"]),
         "traced_fraction": pytest.approx(plain.stats["window"]["covered_fraction"]),
     }
@@ -59,10 +68,10 @@ def test_a_passed_deadline_traces_the_innermost_ring_and_feathers_there(device: 
     raster = _render(scene, "raster", device)
     guard = frame.stats["guard"]
     assert guard["rings_traced"] == 1
-    assert guard["traced_fraction"] == pytest.approx(guard["planned_fraction"] / RINGS, rel=0.05)
+    assert guard["traced_fraction"] == pytest.approx(guard["planned_fraction"] / WINDOW_RINGS, rel=0.05)
     assert frame.stats["rays"]["traced_pixels"] == frame.stats["window"]["pixels"]
     layout = WINDOW.layout(W, H)
-    radius = layout.radius / math.sqrt(RINGS)  # the innermost ring's outer edge
+    radius = layout.radius / math.sqrt(WINDOW_RINGS)  # the innermost ring's outer edge
     ys, xs = np.mgrid[0:H, 0:W]
     dist = radius - np.hypot(xs + 0.5 - layout.cx, ys + 0.5 - layout.cy)
     inner = dist > 4.0 + 1e-3
@@ -86,4 +95,4 @@ def test_the_guard_stops_where_the_clock_says(device: str) -> None:
             frame = r.render(scene.cameras[0], WINDOW, trace_deadline=clock.t + slack)
             counts.append(frame.stats["guard"]["rings_traced"])
     assert counts == sorted(counts)
-    assert set(counts) == set(range(1, RINGS + 1))
+    assert set(counts) == set(range(1, WINDOW_RINGS + 1))

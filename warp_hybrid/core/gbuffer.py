@@ -82,6 +82,11 @@ class GBuffer:
         self.device = wp.get_device(device)
         shape = (self.height, self.width)
         self._arrays = {c.name: wp.empty(shape, dtype=c.dtype, device=self.device) for c in CHANNELS}
+        self._rows = GBufferRows()
+        self._kernel_arrays = GBufferArrays()
+        for name, array in self._arrays.items():
+            setattr(self._rows, name, array.reshape((-1,)))
+            setattr(self._kernel_arrays, name, array)
         self.clear()
 
     def __getattr__(self, name: str) -> wp.array:
@@ -106,18 +111,14 @@ class GBuffer:
                 array.fill_(c.background)
 
     def rows(self) -> GBufferRows:
-        """The flat kernel-side views (what the primary passes write)."""
-        s = GBufferRows()
-        for name, array in self._arrays.items():
-            setattr(s, name, array.reshape((-1,)))
-        return s
+        """The flat kernel-side views (what the primary passes write): one struct, built
+        with the buffer (its arrays never change), so a launch packs it without
+        rebuilding it."""
+        return self._rows
 
     def kernel_arrays(self) -> GBufferArrays:
-        """The 2-D kernel-side views (what the later stages read)."""
-        s = GBufferArrays()
-        for name, array in self._arrays.items():
-            setattr(s, name, array)
-        return s
+        """The 2-D kernel-side views (what the later stages read), likewise built once."""
+        return self._kernel_arrays
 
     def channel_numpy(self, name: str) -> np.ndarray:
         """A host copy of one channel as plain numbers: (H, W) or (H, W, k); struct

@@ -1,8 +1,10 @@
 """The budget guard: trace the focus window outward from the gaze until the deadline.
 
 A frame with a ``trace_deadline`` (the budget controller's, a clock reading) traces its
-planned window not at once but in ``RINGS`` rings of equal area, innermost first
-(``FocusRegionBuilder.rings``).  Before each ring after the first it reads the clock
+planned window not at once but in rings of equal area, innermost first
+(``FocusRegionBuilder.rings``): ``RINGS`` of them, fewer for a window too small to
+give each ring ``MIN_RING_PIXELS`` (``ring_count``: a ring costs about a quarter of a
+millisecond of launches beyond its pixels, so a small window is not cut into slivers).  Before each ring after the first it reads the clock
 (after a device sync) and stops when the ring, at the cost the previous one took,
 would end past the deadline: a misprediction of the controller costs at most about
 one ring, never the budget.  Where tracing stopped short, the window actually traced
@@ -21,8 +23,16 @@ from ..focus import FocusRegionBuilder
 from ..scene.device import DeviceScene
 from .tracer import Tracer
 
-#: Rings a guarded window is traced in (equal areas, so each is 1/RINGS of the window).
+#: Rings a guarded window is traced in at most (equal areas, so each is 1/RINGS of the window).
 RINGS = 8
+#: The fewest pixels a ring holds (below RINGS * MIN_RING_PIXELS, fewer rings).
+MIN_RING_PIXELS = 512
+
+
+def ring_count(pixels: int) -> int:
+    """Rings a window of ``pixels`` is traced in: ``RINGS``, or fewer so that each holds
+    at least ``MIN_RING_PIXELS`` (one at least)."""
+    return max(1, min(RINGS, pixels // MIN_RING_PIXELS))
 
 
 @dataclass
@@ -64,7 +74,8 @@ class GuardedTrace(RenderPass):
         planned = frame.region
         tally = self.tracer.begin_frame(gb.width, gb.height)
         b.visibility.fill_(float("nan"))
-        rings = self.focus.rings(planned.layout, RINGS, frame.timer)
+        count = ring_count(planned.count)
+        rings = self.focus.rings(planned.layout, count, frame.timer)
         done = 0
         last_s = 0.0
         start = 0
@@ -81,7 +92,7 @@ class GuardedTrace(RenderPass):
             start = end
             done += 1
         frame.rays = tally
-        if done < RINGS:
+        if done < count:
             frame.region = self.focus.build_layout(rings.layouts[done - 1], frame.timer)
         screen = float(gb.width * gb.height)
-        self.report = GuardReport(done, RINGS, planned.count / screen, frame.region.count / screen)
+        self.report = GuardReport(done, count, planned.count / screen, frame.region.count / screen)

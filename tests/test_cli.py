@@ -148,3 +148,45 @@ def test_replay_needs_an_output_and_a_positive_length(tmp_path: Path, capsys: py
     assert main([*base, "--stats", str(tmp_path / "s.csv"), "--fps", "-3"]) == 2
     assert "--fps" in capsys.readouterr().err
     assert list(tmp_path.iterdir()) == []
+
+
+def _stage_with_a_broken_mesh_and_a_subdivided_cube(tmp_path: Path) -> Path:
+    """One good subdivided cube (catmullClark authored) and one mesh whose indices run
+    past its points."""
+    from pxr import Usd, UsdGeom
+
+    path = tmp_path / "stage.usda"
+    stage = Usd.Stage.CreateNew(str(path))
+    UsdGeom.Xform.Define(stage, "/World")
+    cube = UsdGeom.Mesh.Define(stage, "/World/Cube")
+    pts = [(x, y, z) for z in (-1, 1) for y in (-1, 1) for x in (-1, 1)]
+    faces = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]]
+    cube.CreatePointsAttr(pts)
+    cube.CreateFaceVertexCountsAttr([4] * 6)
+    cube.CreateFaceVertexIndicesAttr([i for f in faces for i in f])
+    cube.CreateSubdivisionSchemeAttr("catmullClark")
+    broken = UsdGeom.Mesh.Define(stage, "/World/Broken")
+    broken.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (0, 1, 0)])
+    broken.CreateFaceVertexCountsAttr([3])
+    broken.CreateFaceVertexIndicesAttr([0, 1, 7])
+    broken.CreateSubdivisionSchemeAttr("none")
+    stage.GetRootLayer().Save()
+    return path
+
+
+def test_strict_and_subdivision_levels_reach_the_loader(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    """``info``: a malformed mesh is skipped by default and refused with ``--strict``;
+    ``--subdivision-levels`` sets how often the cube is refined (0: its 12-triangle
+    cage; each Catmull-Clark level quadruples the quads); a negative level is refused."""
+    path = _stage_with_a_broken_mesh_and_a_subdivided_cube(tmp_path)
+    triangles = {}
+    for levels in (0, 1, 2):
+        assert main(["info", str(path), "--json", "--subdivision-levels", str(levels)]) == 0
+        triangles[levels] = json.loads(capsys.readouterr().out)["triangles"]
+    assert triangles == {0: 12, 1: 48, 2: 192}
+    assert main(["info", str(path), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["triangles"] == 48  # one level by default
+    assert main(["info", str(path), "--strict"]) == 2
+    assert "/World/Broken: faceVertexIndices holds 7" in capsys.readouterr().err
+    assert main(["info", str(path), "--subdivision-levels", "-1"]) == 2
+    assert "--subdivision-levels must be 0 or more" in capsys.readouterr().err

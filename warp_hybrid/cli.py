@@ -19,7 +19,7 @@ import time
 import warnings
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
-from typing import NoReturn
+from typing import TYPE_CHECKING, NoReturn
 
 from gaze.fixed import point_problem
 
@@ -28,6 +28,9 @@ from .focus import SHAPES
 from .post.postprocess import TONEMAPS
 from .renderer import MODES, PRIMARY_PATHS, RenderSettings
 from .replay.loop import LoopSettings
+
+if TYPE_CHECKING:
+    from .scene.usd.loader import UsdSceneSource
 
 
 def parse_size(text: str) -> tuple[int, int]:
@@ -95,6 +98,34 @@ def frame_gaze(text: str) -> Iterator[Callable[[float], tuple[float, float]]]:
             return float(s.x), float(s.y)
 
         yield sample
+
+
+def _add_scene_arguments(p: argparse.ArgumentParser) -> None:
+    """The scene file and how to read it (``_open_scene``)."""
+    p.add_argument("scene", help="USD file (.usd/.usda/.usdc/.usdz) or a mesh file trimesh reads")
+    p.add_argument(
+        "--strict",
+        action="store_true",
+        help="refuse a stage with a malformed mesh (default: skip that mesh with a warning and draw the rest)",
+    )
+    p.add_argument(
+        "--subdivision-levels",
+        type=int,
+        default=None,
+        metavar="N",
+        help="refinements of meshes that author a subdivision scheme (default 1; 0: their control cage)",
+    )
+
+
+def _open_scene(args: argparse.Namespace) -> UsdSceneSource:
+    """The scene source ``_add_scene_arguments`` describes."""
+    from .scene.open import open_scene_source
+    from .scene.usd.subdivision import DEFAULT_LEVELS
+
+    levels = DEFAULT_LEVELS if args.subdivision_levels is None else args.subdivision_levels
+    if levels < 0:
+        raise RenderSettingsError(f"--subdivision-levels must be 0 or more, got {levels}")
+    return open_scene_source(args.scene, strict=args.strict, subdivision_levels=levels)
 
 
 def _add_frame_arguments(p: argparse.ArgumentParser, window_help: str, window_default: float | None) -> None:
@@ -241,7 +272,7 @@ def _loop_settings(args: argparse.Namespace, start: float, adaptive: bool) -> Lo
 def _add_render_parser(sub: argparse._SubParsersAction) -> None:
     defaults = RenderSettings()
     p = sub.add_parser("render", help="render a scene to a PNG (and optionally AOVs and statistics)")
-    p.add_argument("scene", help="USD file (.usd/.usda/.usdc/.usdz) or a mesh file trimesh reads")
+    _add_scene_arguments(p)
     p.add_argument("-o", "--output", required=True, help="output PNG path")
     _add_frame_arguments(
         p,
@@ -270,7 +301,6 @@ def _cmd_render(args: argparse.Namespace) -> int:
     from .output import Outputs, check_image_path, check_outputs
     from .renderer import Renderer
     from .runtime import init_warp
-    from .scene.open import open_scene_source
     from .scene.usd.camera import select_camera
 
     check_image_path(args.output)  # everything a run can check, before any work
@@ -280,7 +310,7 @@ def _cmd_render(args: argparse.Namespace) -> int:
     with frame_gaze(args.gaze) as gaze_at:
         init_warp()
         t0 = time.perf_counter()
-        source = open_scene_source(args.scene)
+        source = _open_scene(args)
         scene = source.scene_at(args.time)
         load_ms = (time.perf_counter() - t0) * 1000.0
         camera = select_camera(scene.cameras, args.camera, source=str(args.scene))
@@ -345,7 +375,7 @@ def _add_replay_parser(sub: argparse._SubParsersAction) -> None:
         "replay",
         help="replay a gaze trace over a scene at a fixed frame rate, the window adapting to the budget, to video",
     )
-    p.add_argument("scene", help="USD file (.usd/.usda/.usdc/.usdz) or a mesh file trimesh reads")
+    _add_scene_arguments(p)
     p.add_argument("--gaze", required=True, help="gaze source spec (trace:PATH, fixed:X,Y, webcam:..., cursor)")
     _add_budget_arguments(p, LoopSettings().fps)
     length = p.add_mutually_exclusive_group()
@@ -405,7 +435,6 @@ def _cmd_replay(args: argparse.Namespace) -> int:
     from .replay.run import ReplayOutputs, replay
     from .replay.summary import format_summary
     from .runtime import init_warp
-    from .scene.open import open_scene_source
 
     if not (args.out or args.stats or args.summary_json or args.frames_dir or args.error_csv):
         raise RenderSettingsError(
@@ -425,7 +454,7 @@ def _cmd_replay(args: argparse.Namespace) -> int:
     settings = _render_settings(args)
     settings.validate()
     init_warp()
-    source = open_scene_source(args.scene)
+    source = _open_scene(args)
     loop_settings = _loop_settings(args, args.start, adaptive=args.window is None)
     outputs = ReplayOutputs(
         video=Path(args.out) if args.out else None,
@@ -572,7 +601,7 @@ def _cmd_bench(args: argparse.Namespace) -> int:
 
 def _add_info_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("info", help="summarise a scene: counts, lights, cameras, time range, effects needed")
-    p.add_argument("scene")
+    _add_scene_arguments(p)
     p.add_argument("--time", type=finite_float, default=None)
     p.add_argument("--json", action="store_true", help="print JSON instead of text")
 
@@ -580,10 +609,9 @@ def _add_info_parser(sub: argparse._SubParsersAction) -> None:
 def _cmd_info(args: argparse.Namespace) -> int:
     import json
 
-    from .scene.open import open_scene_source
     from .scene.usd.info import format_info, scene_info
 
-    source = open_scene_source(args.scene)
+    source = _open_scene(args)
     scene = source.scene_at(args.time)
     info = scene_info(scene, source)
     print(json.dumps(info, indent=2) if args.json else format_info(info))
@@ -610,7 +638,7 @@ def _cmd_convert(args: argparse.Namespace) -> int:
 
 def _add_view_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("view", help="interactive viewer: a local web page where the cursor (or the webcam) is the gaze")
-    p.add_argument("scene", help="USD file (.usd/.usda/.usdc/.usdz) or a mesh file trimesh reads")
+    _add_scene_arguments(p)
     p.add_argument("--port", type=int, default=8000, help="TCP port (default 8000)")
     p.add_argument(
         "--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1; any other is warned about)"
@@ -635,7 +663,6 @@ def _cmd_view(args: argparse.Namespace) -> int:
     from gaze.factory import split_spec
 
     from .runtime import init_warp
-    from .scene.open import open_scene_source
     from .viewer.render_thread import ViewSettings
     from .viewer.serve import build_viewer, serve
 
@@ -645,7 +672,7 @@ def _cmd_view(args: argparse.Namespace) -> int:
         raise RenderSettingsError(f"view --gaze must be cursor, webcam:... or trace:..., got {args.gaze!r}")
     _one_sample(args, "view (the adaptive loop)")
     init_warp()
-    source = open_scene_source(args.scene)
+    source = _open_scene(args)
     settings = ViewSettings(
         render=_render_settings(args),
         loop=_loop_settings(args, 0.0, adaptive=args.window is None),

@@ -275,7 +275,7 @@ def test_unsupported_prims_are_reported_once_by_name(tmp_path):
     stage, path = new_stage(tmp_path)
     UsdGeom.Points.Define(stage, "/World/Ball")
     UsdGeom.BasisCurves.Define(stage, "/World/Hair")
-    add_mesh(stage, "/World/Sub", [(0, 0, 0), (1, 0, 0), (0, 1, 0)], [3], [0, 1, 2], subdivision="catmullClark")
+    add_mesh(stage, "/World/Sub", [(0, 0, 0), (1, 0, 0), (0, 1, 0)], [3], [0, 1, 2], subdivision="bogus")
     from warp_hybrid.scene.usd.loader import UsdSceneSource
 
     stage.GetRootLayer().Save()

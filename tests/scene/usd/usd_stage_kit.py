@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade, Vt
 
 from warp_hybrid.scene.model import Scene
 from warp_hybrid.scene.usd.loader import load_scene
@@ -103,3 +103,43 @@ def triangle_areas(scene: Scene) -> np.ndarray:
     """Areas (T,) of the scene's triangles."""
     p = scene.points.astype(np.float64)[scene.indices]
     return 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
+
+
+def set_st(mesh: UsdGeom.Mesh, uvs, interpolation: str = "vertex") -> None:
+    """Author ``primvars:st`` (texCoord2f[]) on ``mesh`` with this interpolation."""
+    st = mesh.GetPrim().CreateAttribute("primvars:st", Sdf.ValueTypeNames.TexCoord2fArray)
+    st.Set(Vt.Vec2fArray([Gf.Vec2f(float(u), float(v)) for u, v in uvs]))
+    st.SetMetadata("interpolation", interpolation)
+
+
+def st_reader(stage: Usd.Stage, path: str, varname: str = "st") -> UsdShade.Output:
+    """A ``UsdPrimvarReader_float2`` of ``varname`` at ``path``; returns its result output."""
+    reader = UsdShade.Shader.Define(stage, path)
+    reader.CreateIdAttr("UsdPrimvarReader_float2")
+    reader.CreateInput("varname", Sdf.ValueTypeNames.Token).Set(varname)
+    return reader.CreateOutput("result", Sdf.ValueTypeNames.Float2)
+
+
+def uv_texture(
+    stage: Usd.Stage, path: str, file: str, st: UsdShade.Output | None, output: str = "rgb", **inputs
+) -> UsdShade.Output:
+    """A ``UsdUVTexture`` at ``path`` reading ``file`` (its ``st`` from ``st`` when given);
+    ``scale``/``bias`` are 4-tuples, other ``inputs`` tokens.  Returns its ``output``."""
+    tex = UsdShade.Shader.Define(stage, path)
+    tex.CreateIdAttr("UsdUVTexture")
+    tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(file)
+    if st is not None:
+        tex.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(st)
+    for key, value in inputs.items():
+        if key in ("scale", "bias"):
+            tex.CreateInput(key, Sdf.ValueTypeNames.Float4).Set(Gf.Vec4f(*map(float, value)))
+        else:
+            tex.CreateInput(key, Sdf.ValueTypeNames.Token).Set(value)
+    kinds = {"rgb": Sdf.ValueTypeNames.Float3, "rgba": Sdf.ValueTypeNames.Float4}
+    return tex.CreateOutput(output, kinds.get(output, Sdf.ValueTypeNames.Float))
+
+
+def mesh_world_points(scene: Scene, prim_path: str) -> np.ndarray:
+    """World positions (N, 3) float64 of the points of the mesh ``prim_path`` in ``scene``."""
+    (r,) = [m for m in scene.meshes if m.prim_path == prim_path]
+    return scene.points[r.first_point : r.first_point + r.point_count].astype(np.float64) + scene.origin

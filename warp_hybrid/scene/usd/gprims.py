@@ -13,6 +13,7 @@ from pxr import Usd, UsdGeom
 
 from .implicit import is_implicit, read_implicit_mesh
 from .meshes import LocalMesh, read_local_mesh
+from .subdivision import DEFAULT_LEVELS
 from .validate import Diagnostics
 
 
@@ -21,11 +22,22 @@ def is_drawn(prim: Usd.Prim) -> bool:
     return prim.IsA(UsdGeom.Mesh) or is_implicit(prim)
 
 
-def read_gprim(prim: Usd.Prim, time: float, path: str, diag: Diagnostics, may_animate: bool = True) -> LocalMesh:
-    """``prim`` (``is_drawn``) triangulated in its local space at ``time``.  Raises what
-    ``read_local_mesh`` raises for a mesh (``MalformedMeshError`` for bad topology)."""
+def read_gprim(
+    prim: Usd.Prim,
+    time: float,
+    path: str,
+    diag: Diagnostics,
+    may_animate: bool = True,
+    points: np.ndarray | None = None,
+    points_vary: bool = False,
+    subdivision_levels: int = DEFAULT_LEVELS,
+) -> LocalMesh:
+    """``prim`` (``is_drawn``) triangulated in its local space at ``time``.  For a mesh,
+    ``points``, ``points_vary`` and ``subdivision_levels`` go to ``read_local_mesh``
+    (skinned points, subdivision), and what it raises propagates
+    (``MalformedMeshError`` for bad topology); implicit prims take neither."""
     if prim.IsA(UsdGeom.Mesh):
-        return read_local_mesh(prim, time, path, diag, may_animate)
+        return read_local_mesh(prim, time, path, diag, may_animate, points, points_vary, subdivision_levels)
     return read_implicit_mesh(prim, time, may_animate)
 
 

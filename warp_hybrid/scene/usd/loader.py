@@ -38,8 +38,14 @@ instance proxies and share one triangulation per prototype mesh):
   transforms (``ComputeInstanceTransformsAtTime``; inactive/invisible ids masked);
 * UsdLux lights (see ``lights``) and every ``UsdGeom.Camera`` (visible or not);
 * anything else that draws (other gprims such as Points, BasisCurves, NURBS,
-  volumes; light filters; mesh lights; skinning) is reported once per prim and
-  skipped, never dropped silently.
+  volumes; light filters; mesh lights) is reported once per prim and skipped, never
+  dropped silently.
+
+Meshes that author a ``subdivisionScheme`` are refined (``subdivision``;
+``subdivision_levels``, default 1; unauthored, the USD fallback catmullClark, they stay
+polygon meshes with one warning).  Meshes bound to a Skeleton (``SkelBindingAPI``) are
+drawn with pxr's skinned points (``skel``); when the animation (or anything else the
+skinning reads) is time-sampled they vary over time like animated points.
 
 A stage with no light and no dome is lit as usdview lights it (``default_light``:
 a headlight along the default camera's view and a dim dome), with one warning.
@@ -78,8 +84,10 @@ from .lights import read_lights
 from .materials import MaterialLibrary, bound_material
 from .meshes import LocalMesh, MalformedMeshError, WorldMesh, corner_uvs, to_world
 from .primvars import DISPLAY_COLOR, PrimvarInput, corner_colors, read_display_color
+from .skel import NOT_APPLIED, Skinner, Skinning
 from .stage import StageInfo, open_stage, read_stage_info, report_composition_errors
 from .stage_metadata import check_stage_metadata
+from .subdivision import DEFAULT_LEVELS
 from .textures import ImageLibrary
 from .validate import Diagnostics, check_extent, validate_scene
 
@@ -99,7 +107,8 @@ _GEOMETRY = ("points", "indices", "corner_normals", "corner_uvs", "triangle_mate
 
 @dataclass
 class _Item:
-    """One mesh to draw, once or as a batch of instances (``matrices`` (K, 4, 4))."""
+    """One mesh to draw, once or as a batch of instances (``matrices`` (K, 4, 4));
+    ``skin``: its skinning, for a mesh bound to a Skeleton."""
 
     key: str
     prim: Usd.Prim
@@ -107,6 +116,7 @@ class _Item:
     matrices: np.ndarray
     animated: bool
     names: list[str]
+    skin: Skinning | None = None
 
 
 @dataclass
@@ -230,12 +240,23 @@ def _matrix(m) -> np.ndarray:
 class UsdSceneSource:
     """An open USD stage that produces ``Scene`` snapshots at time codes."""
 
-    def __init__(self, path: str | os.PathLike, stage: Usd.Stage | None = None, strict: bool = False) -> None:
+    def __init__(
+        self,
+        path: str | os.PathLike,
+        stage: Usd.Stage | None = None,
+        strict: bool = False,
+        subdivision_levels: int = DEFAULT_LEVELS,
+    ) -> None:
         """Open ``path`` (or wrap an already opened ``stage``, e.g. one converted from
         another format in memory; ``path`` then names it in messages).  ``strict``: a
-        malformed mesh raises ``SceneError`` instead of being skipped with a warning."""
+        malformed mesh raises ``SceneError`` instead of being skipped with a warning.
+        ``subdivision_levels``: how often meshes that author a subdivision scheme are
+        refined (0: drawn as their control cage)."""
+        if isinstance(subdivision_levels, bool) or not isinstance(subdivision_levels, int) or subdivision_levels < 0:
+            raise ValueError(f"subdivision_levels must be a whole number >= 0, not {subdivision_levels!r}")
         self.path = os.fspath(path)
         self.strict = strict
+        self.subdivision_levels = subdivision_levels
         self.diagnostics = Diagnostics(self.path)
         if stage is None:
             stage = open_stage(self.path, self.diagnostics)
@@ -244,6 +265,7 @@ class UsdSceneSource:
         self.stage = stage
         self.info: StageInfo = check_stage_metadata(read_stage_info(stage), stage, self.path, self.diagnostics)
         self.images = ImageLibrary(self.diagnostics)
+        self._skinner = Skinner(self.diagnostics)
         self._skipped: set[str] = set()  # source keys of malformed meshes, drawn as nothing
         self._headlit = False  # default lighting (no lights on the stage) is in use
         self._materials: MaterialLibrary | None = None
@@ -460,7 +482,11 @@ class UsdSceneSource:
             if is_drawn(prim):
                 self._check_mesh_features(prim, unauthored_subdiv)
                 m = _matrix(xcache.GetLocalToWorldTransform(prim))[None]
-                items.append(_Item(name, prim, _source_key(prim), m, xanim, [name]))
+                skin = None
+                if prim.IsA(UsdGeom.Mesh) and "SkelBindingAPI" in prim.GetAppliedSchemas():
+                    skin = self._skinner.binding(prim, self._may_animate)
+                source = name if skin is not None else _source_key(prim)  # skinned instances differ
+                items.append(_Item(name, prim, source, m, xanim, [name], skin))
             elif prim.IsA(UsdGeom.PointInstancer):
                 batch, rerun = self._instancer_items(prim, tc, xcache, xanim, visibility)
                 instancers.append(_Instancer(prim, xanim, len(items), len(items) + len(batch), rerun))
@@ -491,21 +517,20 @@ class UsdSceneSource:
             watch[attr.GetPath()] = (attr, value)
         return value
 
-    def _check_mesh_features(self, prim: Usd.Prim, unauthored_subdiv: list[str]) -> None:
+    def _check_mesh_features(self, prim: Usd.Prim, unauthored_subdiv: list[str], in_prototype: bool = False) -> None:
+        """Note a mesh that leaves subdivisionScheme unauthored; warn about what is not
+        applied to ``prim``: mesh lights, skinning of implicit prims and of prototypes."""
         diag = self.diagnostics
         name = str(prim.GetPath())
-        scheme = UsdGeom.Mesh(prim).GetSubdivisionSchemeAttr() if prim.IsA(UsdGeom.Mesh) else None
-        if scheme is None:
-            pass  # an implicit prim: no subdivision
-        elif not scheme.HasAuthoredValue():
+        is_mesh = prim.IsA(UsdGeom.Mesh)
+        if is_mesh and not UsdGeom.Mesh(prim).GetSubdivisionSchemeAttr().HasAuthoredValue():
             unauthored_subdiv.append(name)
-        elif scheme.Get() != UsdGeom.Tokens.none:
-            diag.warn(f"subdivisionScheme {scheme.Get()!r} is not supported; rendered as its control cage", name)
         applied = prim.GetAppliedSchemas()
         if "MeshLightAPI" in applied:
             diag.warn("MeshLightAPI emission is not supported; the mesh renders with its material only", name)
-        if "SkelBindingAPI" in applied:
-            diag.warn("skinning (SkelBindingAPI) is not applied; rendered in its rest pose", name)
+        if "SkelBindingAPI" in applied and (in_prototype or not is_mesh):
+            where = "in a PointInstancer prototype" if in_prototype else f"to a {prim.GetTypeName()} (only to meshes)"
+            diag.warn(f"{NOT_APPLIED} {where}; rendered in its rest pose", name)
 
     def _instancer_items(
         self,
@@ -605,7 +630,7 @@ class UsdSceneSource:
                 diag.warn("nested PointInstancers are not supported; skipped", name)
                 it.PruneChildren()
             elif is_drawn(prim):
-                self._check_mesh_features(prim, [])
+                self._check_mesh_features(prim, [], in_prototype=True)
                 rel, _resets = xcache.ComputeRelativeTransform(prim, proto)
                 animated = False
                 p = prim
@@ -643,10 +668,16 @@ class UsdSceneSource:
         return part
 
     def _read_local(self, item: _Item, time: float) -> LocalMesh:
-        """The item's prim in its local space; a malformed mesh is skipped with a
-        warning naming it (an empty mesh), or raises when the source is strict."""
+        """The item's prim in its local space (skinned and subdivided as it asks); a
+        malformed mesh is skipped with a warning naming it (an empty mesh), or raises
+        when the source is strict."""
         try:
-            return read_gprim(item.prim, time, self.path, self.diagnostics, self._may_animate)
+            skin = item.skin
+            points = None if skin is None else self._skinner.local_points(skin, time)
+            varies = skin is not None and skin.varies
+            return read_gprim(
+                item.prim, time, self.path, self.diagnostics, self._may_animate, points, varies, self.subdivision_levels
+            )
         except MalformedMeshError as exc:
             if self.strict:
                 raise
@@ -760,8 +791,11 @@ def _world_bounds(parts: list[_Part]) -> tuple[np.ndarray, np.ndarray]:
     return lo, hi
 
 
-def load_scene(path: str | os.PathLike, time: float | None = None, strict: bool = False) -> Scene:
+def load_scene(
+    path: str | os.PathLike, time: float | None = None, strict: bool = False, subdivision_levels: int = DEFAULT_LEVELS
+) -> Scene:
     """Load the USD file ``path`` as a ``Scene`` at ``time`` (default: the start of its
     time range, or 0).  Raises ``SceneError`` naming the file (and prim) for bad input;
-    ``strict``: a malformed mesh too (else it is skipped with a warning)."""
-    return UsdSceneSource(path, strict=strict).scene_at(time)
+    ``strict``: a malformed mesh too (else it is skipped with a warning).
+    ``subdivision_levels``: see ``UsdSceneSource``."""
+    return UsdSceneSource(path, strict=strict, subdivision_levels=subdivision_levels).scene_at(time)

@@ -11,6 +11,13 @@ Reading is split in two so instances and static meshes are cheap:
   indexed or not), else smooth area-weighted vertex normals are computed; NaN/Inf
   authored normals raise ``SceneError`` naming the prim (as NaN/Inf points do),
   zero-length ones become the geometric (face) normal.
+* A mesh that authors ``subdivisionScheme`` catmullClark, loop or bilinear is refined
+  first (``subdivision``): its refined faces are triangulated, ``tri_face`` still names
+  the control face (material subsets, uniform primvars), primvars are refined with the
+  points (``LocalMesh.refinement``), and normals are computed from the refined points,
+  split along the creases still sharp (authored normals are ignored, as USD specifies
+  for subdivision surfaces).  Skinned points (``skel``) replace the authored points
+  before that; their normals are computed too (authored ones would need skinning).
 * ``to_world`` applies one or many local-to-world matrices (instances) in a batch:
   points by the matrix (in float64, kept so), normals by its inverse transpose, and
   the winding flipped again where a matrix mirrors (negative determinant).
@@ -27,6 +34,7 @@ import numpy as np
 from pxr import Sdf, Usd, UsdGeom
 
 from ...errors import SceneError
+from .subdivision import DEFAULT_LEVELS, Refinement, crease_normals, read_refinement
 from .validate import Diagnostics, check_points, check_primvar, check_topology
 
 
@@ -54,7 +62,9 @@ class LocalMesh:
     source polygon of each triangle.  ``corner_normals`` (T, 3, 3) are unit length.
     ``time_varying``: points, topology or normals may change over time.  ``authored``
     names the prim's properties that have opinions; ``uvs`` caches corner uvs by
-    primvar name.
+    primvar name.  A subdivided mesh has its ``refinement``: ``points`` and
+    ``tri_corner`` / ``tri_points`` are then the refined mesh's, ``tri_face``,
+    ``face_count`` and ``face_vertex_count`` still the control mesh's.
     """
 
     prim_path: str
@@ -69,6 +79,7 @@ class LocalMesh:
     time_varying: bool
     authored: frozenset[str] = frozenset()
     uvs: dict[str, np.ndarray] = field(default_factory=dict)
+    refinement: Refinement | None = None
 
     @property
     def triangle_count(self) -> int:
@@ -239,12 +250,18 @@ class _Topology:
     tri_corner: np.ndarray
     tri_points: np.ndarray
     tri_face: np.ndarray
+    refinement: Refinement | None = None
 
 
 def _to_corners(values: np.ndarray, interpolation: str, topo: _Topology) -> np.ndarray:
     """Expand primvar ``values`` (M, k) with ``interpolation`` to triangle corners
-    (T, 3, k).  ``np.take`` gathers rows several times faster than fancy indexing."""
+    (T, 3, k), through the refinement of a subdivided mesh.  ``np.take`` gathers rows
+    several times faster than fancy indexing."""
     t = topo.tri_points.shape[0]
+    r = topo.refinement
+    if r is not None and interpolation in ("vertex", "varying", "faceVarying"):
+        refined = {"vertex": r.vertex_values, "varying": r.varying_values, "faceVarying": r.face_varying_values}
+        values = refined[interpolation](values).astype(values.dtype)
     if interpolation == "constant":
         return np.broadcast_to(values[0], (t, 3, values.shape[1])).copy()
     if interpolation == "uniform":
@@ -322,20 +339,36 @@ def _array(attr: Usd.Attribute, time: Usd.TimeCode, dtype: type, shape: tuple[in
     return np.asarray(value, dtype=dtype).reshape(shape)
 
 
-def read_local_mesh(prim: Usd.Prim, time: float, path: str, diag: Diagnostics, may_animate: bool = True) -> LocalMesh:
+def read_local_mesh(
+    prim: Usd.Prim,
+    time: float,
+    path: str,
+    diag: Diagnostics,
+    may_animate: bool = True,
+    points: np.ndarray | None = None,
+    points_vary: bool = False,
+    subdivision_levels: int = DEFAULT_LEVELS,
+) -> LocalMesh:
     """Read and triangulate the mesh ``prim`` at ``time`` in its local space.
 
     ``may_animate=False`` (the stage holds no time samples) skips the per-attribute
-    time-variability queries.  Raises ``SceneError`` (naming ``path`` and the prim) for NaN/Inf points, counts
-    that do not sum to the index count, or indices outside the points; warns and
-    falls back for degenerate faces, bad hole indices and ill-sized normals.
+    time-variability queries.  ``points`` (N, 3), when given, replace the authored
+    ones (skinned points; ``points_vary``: they may change over time); normals are
+    then computed.  A mesh that authors a subdivision scheme is refined
+    ``subdivision_levels`` times (``subdivision``; 0: its control cage).  Raises
+    ``SceneError`` (naming ``path`` and the prim) for NaN/Inf points, counts that do not
+    sum to the index count, or indices outside the points; warns and falls back for
+    degenerate faces, bad hole indices, ill-sized normals and bad crease data.
     """
     t = Usd.TimeCode(time)
     name = str(prim.GetPath())
     # Only attributes with opinions are read; the rest take their schema fallbacks
     # (no holes, rightHanded, single-sided), which saves pxr calls on big scenes.
     authored = frozenset(prim.GetAuthoredPropertyNames())
-    points = _array(prim.GetAttribute("points"), t, np.float32, (-1, 3))
+    deformed = points is not None
+    if points is None:
+        points = _array(prim.GetAttribute("points"), t, np.float32, (-1, 3))
+    points = np.asarray(points, dtype=np.float32).reshape(-1, 3)
     counts = _array(prim.GetAttribute("faceVertexCounts"), t, np.int64, (-1,))
     fvi = _array(prim.GetAttribute("faceVertexIndices"), t, np.int64, (-1,))
     check_points(points, path, name)
@@ -352,16 +385,28 @@ def read_local_mesh(prim: Usd.Prim, time: float, path: str, diag: Diagnostics, m
         if holes.size and (holes.min() < 0 or holes.max() >= counts.size):
             diag.warn(f"holeIndices reach outside the {counts.size} faces; those entries are ignored", name)
             holes = holes[(holes >= 0) & (holes < counts.size)]
-    tri_corner, tri_face = triangulate(counts, fvi, points, holes)
+    control_points = len(points)
+    refinement = read_refinement(prim, t, authored, counts, fvi, control_points, diag, subdivision_levels)
+    drawn_counts, drawn_fvi = counts, fvi
+    if refinement is not None:
+        points = refinement.vertex_values(points).astype(np.float32)
+        drawn_counts, drawn_fvi, holes = refinement.counts, refinement.indices, refinement.refined_holes(holes)
+    tri_corner, tri_face = triangulate(drawn_counts, drawn_fvi, points, holes)
     if "orientation" in authored and prim.GetAttribute("orientation").Get(t) == UsdGeom.Tokens.leftHanded:
         tri_corner = tri_corner[:, [0, 2, 1]]
-    tri_points = np.take(fvi, tri_corner).astype(np.int32)
-    topo = _Topology(int(counts.size), len(points), int(fvi.size), tri_corner, tri_points, tri_face)
-    normals = _authored_normals(prim, authored, t, topo, diag, name)
+    tri_points = np.take(drawn_fvi, tri_corner).astype(np.int32)
+    normals = None
+    if refinement is not None:
+        if refinement.sharp_edges.size:  # else the smooth vertex normals below
+            normals = crease_normals(points, refinement, tri_corner, _face_cross(points, tri_points), tri_face)
+        tri_face = refinement.face_parent[tri_face]
+    topo = _Topology(int(counts.size), control_points, int(fvi.size), tri_corner, tri_points, tri_face, refinement)
+    if normals is None and not deformed and refinement is None:
+        normals = _authored_normals(prim, authored, t, topo, diag, name)
     if normals is None:
         normals = np.take(vertex_normals(points, tri_points), tri_points, axis=0)
     normals = _fix_normals(normals, points, tri_points)
-    varying = may_animate and any(
+    file_varies = may_animate and any(
         prim.GetAttribute(a).ValueMightBeTimeVarying()
         for a in (
             "points",
@@ -371,9 +416,16 @@ def read_local_mesh(prim: Usd.Prim, time: float, path: str, diag: Diagnostics, m
             "normals",
             "primvars:normals",
             "primvars:normals:indices",
+            "creaseIndices",
+            "creaseLengths",
+            "creaseSharpnesses",
+            "cornerIndices",
+            "cornerSharpnesses",
         )
         if a in authored
     )
+    varying = points_vary or file_varies
+
     double_sided = "doubleSided" in authored and bool(prim.GetAttribute("doubleSided").Get(t))
     return LocalMesh(
         prim_path=name,
@@ -387,6 +439,7 @@ def read_local_mesh(prim: Usd.Prim, time: float, path: str, diag: Diagnostics, m
         double_sided=double_sided,
         time_varying=bool(varying),
         authored=authored,
+        refinement=refinement,
     )
 
 
@@ -437,8 +490,15 @@ def corner_primvar(
     """``primvar`` of ``local``'s prim at its triangle corners (T, 3, ``width``), with
     any interpolation, indexed or not; None (warned, naming ``fallback``) when its
     values do not fit the mesh."""
+    r = local.refinement
     topo = _Topology(
-        local.face_count, len(local.points), local.face_vertex_count, local.tri_corner, local.tri_points, local.tri_face
+        local.face_count,
+        len(local.points) if r is None else r.control_points,
+        local.face_vertex_count,
+        local.tri_corner,
+        local.tri_points,
+        local.tri_face,
+        r,
     )
     interpolation = primvar.GetInterpolation()
     return _read_primvar(primvar, interpolation, Usd.TimeCode(time), topo, width, diag, local.prim_path, fallback)

@@ -10,7 +10,7 @@ time percentiles, and the controller's prediction error per frame (median and 95
 percentile of |predicted - measured| frame ms).  Each scene runs in its own subprocess.
 
     .venv/bin/python scripts/bench_budget.py [--scenes staircase classroom_animated] [--size 640x480]
-        [--fps 15] [--json out/bench_budget.json]
+        [--fps 15] [--device cpu|cuda:0] [--json out/bench_budget.json]
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ from bench_common import ROOT, run_per_scene
 TRACE = ROOT / "scenes" / "traces" / "demo_gaze.csv"
 
 
-def measure_scene(path: str, width: int, height: int, repeats: int, fps: float) -> dict:
+def measure_scene(path: str, width: int, height: int, repeats: int, fps: float, device: str = "cpu") -> dict:
     """Raster-only median and a budgeted replay of the trace for one scene."""
     from gaze.factory import open_source
     from warp_hybrid.renderer import RenderSettings
@@ -35,12 +35,12 @@ def measure_scene(path: str, width: int, height: int, repeats: int, fps: float) 
     init_warp()
     budget = 1000.0 / fps
     source = open_scene_source(path)
-    raster = RenderSettings(width=width, height=height, mode="raster")
+    raster = RenderSettings(width=width, height=height, mode="raster", device=device)
     with AdaptiveLoop(source, raster, LoopSettings(fps=fps)) as loop:
         gaze = SteadyGaze(open_source("fixed:0.5,0.5"))
         loop.renderer.warm_up(loop.camera)
         raster_ms = statistics.median(loop.step(0.0, gaze.sample(0.0)).frame_ms for _ in range(max(repeats, 3)))
-    hybrid = RenderSettings(width=width, height=height, mode="hybrid")
+    hybrid = RenderSettings(width=width, height=height, mode="hybrid", device=device)
     frames_ms, traced, errors = [], [], []
     with open_source(f"trace:{TRACE}") as trace, AdaptiveLoop(source, hybrid, LoopSettings(fps=fps)) as loop:
         gaze = SteadyGaze(trace)
@@ -78,7 +78,10 @@ def main() -> None:
         __doc__.splitlines()[0],
         __file__,
         measure_scene,
-        options=[("--fps", {"type": float, "default": 15.0, "help": "target frame rate (default 15)"})],
+        options=[
+            ("--fps", {"type": float, "default": 15.0, "help": "target frame rate (default 15)"}),
+            ("--device", {"default": "cpu", "help": "Warp device (cpu or cuda:0)"}),
+        ],
     )
     fps = args.fps
     print(

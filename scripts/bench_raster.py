@@ -10,7 +10,8 @@ run, the cold start (every kernel compiled from an empty cache, first frame).
 Each scene runs in its own subprocess so its peak RSS is its own.
 
     .venv/bin/python scripts/bench_raster.py [--scenes staircase classroom] [--size 640x480]
-        [--threads N] [--json out/bench_raster.json]
+        [--repeats 5] [--device cpu|cuda:0] [--json out/bench_raster.json]
+    WARP_HYBRID_THREADS=1 .venv/bin/python scripts/bench_raster.py ...   # one host thread
 """
 
 from __future__ import annotations
@@ -23,8 +24,8 @@ import time
 from bench_common import ROOT, manifest_scenes, median_ms, peak_rss_mb, run_per_scene
 
 
-def measure_scene(path: str, width: int, height: int, repeats: int) -> dict:
-    """Measure one scene in this process; returns a JSON-ready dict."""
+def measure_scene(path: str, width: int, height: int, repeats: int, device: str = "cpu") -> dict:
+    """Measure one scene in this process on ``device``; returns a JSON-ready dict."""
     import numpy as np
 
     from warp_hybrid.core.camera import make_camera_gpu
@@ -40,7 +41,7 @@ def measure_scene(path: str, width: int, height: int, repeats: int) -> dict:
     t0 = time.perf_counter()
     scene = open_scene_source(path).scene_at(None)
     load_ms = (time.perf_counter() - t0) * 1000.0
-    renderer = Renderer(scene, RenderSettings(width=width, height=height))
+    renderer = Renderer(scene, RenderSettings(width=width, height=height, device=device))
     camera = scene.cameras[0]
 
     def frame() -> dict[str, float]:
@@ -101,9 +102,15 @@ def cold_start(path: str, width: int, height: int) -> float:
 
 def main() -> None:
     """Run the benchmark and print a markdown table."""
-    args, width, height, results = run_per_scene(__doc__.splitlines()[0], __file__, measure_scene)
+    args, width, height, results = run_per_scene(
+        __doc__.splitlines()[0],
+        __file__,
+        measure_scene,
+        options=[("--device", {"default": "cpu", "help": "Warp device (cpu or cuda:0)"})],
+    )
     biggest = max(manifest_scenes(args.scenes), key=lambda e: e["triangles"])
-    cold = cold_start(biggest["path"], width, height)
+    # the cold start compiles the CPU kernels: measured on CPU runs only
+    cold = cold_start(biggest["path"], width, height) if args.device == "cpu" else None
     cols = [
         "triangles",
         "load_ms",
@@ -125,9 +132,10 @@ def main() -> None:
             f"| {name} | {vals} | {ratio:.1f}x | {100 * r['depth_agreement']:.3f}% | {100 * r['triangle_id_agreement']:.3f}% | {r['peak_rss_mb']:.0f} |"
         )
     threads = next(iter(results.values()))["threads"] if results else 0
+    cold_text = f"{cold:.1f} s" if cold is not None else "not measured off the CPU"
     print(
-        f"\n{width}x{height}, {threads} threads, median of {args.repeats} after a warm-up; "
-        f"cold start ({biggest['name']}, empty kernel cache to first frame): {cold:.1f} s"
+        f"\n{width}x{height}, {args.device}, {threads} threads, median of {args.repeats} after a warm-up; "
+        f"cold start ({biggest['name']}, empty kernel cache to first frame): {cold_text}"
     )
     if args.json:
         from warp_hybrid.output import write_json

@@ -7,7 +7,7 @@ reflection + refraction) in full mode; and full-mode tracing with 1 thread vs al
 threads, to check the launch layer's scaling.  Each scene runs in its own subprocess.
 
     .venv/bin/python scripts/bench_trace.py [--scenes staircase glass_dragon] [--size 640x480]
-        [--repeats 5] [--json out/bench_trace.json]
+        [--repeats 5] [--device cpu|cuda:0] [--json out/bench_trace.json]
 """
 
 from __future__ import annotations
@@ -17,8 +17,8 @@ from bench_common import median_ms, run_per_scene
 TRACE_STAGES = ("trace_shadow", "trace_secondary")
 
 
-def measure_scene(path: str, width: int, height: int, repeats: int) -> dict:
-    """All modes of one scene in this process; returns a JSON-ready dict."""
+def measure_scene(path: str, width: int, height: int, repeats: int, device: str = "cpu") -> dict:
+    """All modes of one scene in this process on ``device``; returns a JSON-ready dict."""
     from warp_hybrid.renderer import Renderer, RenderSettings
     from warp_hybrid.runtime import init_warp
     from warp_hybrid.scene.open import open_scene_source
@@ -34,7 +34,9 @@ def measure_scene(path: str, width: int, height: int, repeats: int) -> dict:
         "full_1thread": ("full", 1),
     }
     for name, (mode, threads) in configs.items():
-        settings = RenderSettings(width=width, height=height, mode=mode, window_fraction=0.25, threads=threads)
+        settings = RenderSettings(
+            width=width, height=height, mode=mode, window_fraction=0.25, threads=threads, device=device
+        )
         with Renderer(scene, settings) as r:
             last: dict = {}
 
@@ -69,7 +71,12 @@ def measure_scene(path: str, width: int, height: int, repeats: int) -> dict:
 
 def main() -> None:
     """Run the benchmark and print the tables."""
-    args, width, height, results = run_per_scene(__doc__.splitlines()[0], __file__, measure_scene)
+    args, width, height, results = run_per_scene(
+        __doc__.splitlines()[0],
+        __file__,
+        measure_scene,
+        options=[("--device", {"default": "cpu", "help": "Warp device (cpu or cuda:0)"})],
+    )
     print(
         "| scene | triangles | DS fps | RT fps | HRT fps (25%) | HRT vs RT | shadow Mrays/s | secondary Mrays/s | trace 2 vs 1 thread |"
     )

@@ -89,6 +89,25 @@ def test_focus_region_composition(launcher: Launcher) -> None:
     np.testing.assert_allclose(result[band], 0.25 + weight[band] * 1.75, rtol=1e-6)
 
 
+def test_blending_only_the_window_rows_gives_the_whole_blend(launcher: Launcher) -> None:
+    """Restricted to the window's bounding rows, the blend is bit-identical to blending
+    every row: the rows outside are the raster layer copied, whatever ``out`` held and
+    whatever (NaN) the traced layer holds there."""
+    region = FocusRegionBuilder(launcher, W, H).build(FocusWindow((0.4, 0.6), 0.2, "circle", 6.0), StageTimer())
+    layout = region.layout
+    assert 0 < layout.y0 < layout.y1 < H  # rows on both sides are skipped
+    raster, traced, _ = _images(3)
+    traced[: layout.y0] = np.nan
+    traced[layout.y1 :] = np.nan
+    raster_d, traced_d = _device(raster, launcher.device, wp.vec3), _device(traced, launcher.device, wp.vec3)
+    whole = wp.empty((H, W), dtype=wp.vec3, device=launcher.device)
+    rows = wp.array(np.full((H, W, 3), 7.0, np.float32), dtype=wp.vec3, device=launcher.device)
+    Compositor(launcher).blend(raster_d, traced_d, region.weight, whole, StageTimer())
+    Compositor(launcher).blend(raster_d, traced_d, region.weight, rows, StageTimer(), (layout.y0, layout.y1))
+    np.testing.assert_array_equal(rows.numpy(), whole.numpy())
+    np.testing.assert_array_equal(rows.numpy()[: layout.y0], raster[: layout.y0])
+
+
 def test_blend_rejects_mismatched_shapes(launcher: Launcher) -> None:
     image = wp.zeros((H, W), dtype=wp.vec3, device=launcher.device)
     small = wp.zeros((H, W - 1), dtype=wp.float32, device=launcher.device)

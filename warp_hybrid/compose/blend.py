@@ -7,7 +7,10 @@ traced buffer holds outside the window, NaN included, never leaks in) and exactl
 ``traced`` where ``weight >= 1``.  ``out`` may be ``raster`` (blend in place).
 
 The kernel follows ``Launcher.launch_pixels`` (last inputs ``row0, row_step, cols``):
-one launch item per row on the CPU, one thread per pixel on CUDA.
+one launch item per row on the CPU, one thread per pixel on CUDA.  It runs over the
+rows the weights can be non-zero in (the focus window's bounding rows); the other rows
+of ``out`` are ``raster`` copied (a memory copy, the same values the blend gives at
+weight 0).
 """
 
 from __future__ import annotations
@@ -57,13 +60,23 @@ class Compositor(RenderPass):
         weights into the frame's colour."""
         assert frame.region is not None, "the focus pass runs first"
         b = frame.buffers
-        self.blend(b.raster_color, b.traced_color, frame.region.weight, b.color, frame.timer)
+        layout = frame.region.layout
+        self.blend(b.raster_color, b.traced_color, frame.region.weight, b.color, frame.timer, (layout.y0, layout.y1))
 
-    def blend(self, raster: wp.array, traced: wp.array, weight: wp.array, out: wp.array, timer: StageTimer) -> None:
+    def blend(
+        self,
+        raster: wp.array,
+        traced: wp.array,
+        weight: wp.array,
+        out: wp.array,
+        timer: StageTimer,
+        rows: tuple[int, int] | None = None,
+    ) -> None:
         """Write ``raster + weight * (traced - raster)`` into ``out`` (stage ``"compose"``).
 
         All arrays are (H, W): ``raster``, ``traced`` and ``out`` vec3, ``weight``
-        float32; ``out`` may be ``raster``."""
+        float32; ``out`` may be ``raster``.  ``rows`` (first, stop): the only rows
+        where ``weight`` may be > 0 (default: all); elsewhere ``out`` is ``raster``."""
         shape = tuple(raster.shape)
         if len(shape) != 2:
             raise ValueError(f"raster must be an (H, W) image, got shape {shape}")
@@ -71,5 +84,13 @@ class Compositor(RenderPass):
             if tuple(array.shape) != shape:
                 raise ValueError(f"{name} has shape {tuple(array.shape)}, expected {shape} like raster")
         h, w = shape
+        first, stop = (0, h) if rows is None else (max(0, min(rows[0], h)), max(0, min(rows[1], h)))
+        stop = max(stop, first)
         with timer.stage("compose"):
-            self.launcher.launch_pixels(blend_pixels, h, w, [raster, traced, weight, out])
+            if out.ptr != raster.ptr:
+                for a, b in ((0, first), (stop, h)):
+                    if b > a:
+                        wp.copy(out, raster, dest_offset=a * w, src_offset=a * w, count=(b - a) * w)
+            if stop > first:
+                views = [array[first:stop] for array in (raster, traced, weight, out)]
+                self.launcher.launch_pixels(blend_pixels, stop - first, w, views)

@@ -21,7 +21,8 @@ MipOffsets = wp.types.vector(length=MAX_MIP_LEVELS, dtype=wp.int32)
 
 @wp.struct
 class MaterialGPU:
-    """UsdPreviewSurface parameters as kernels see them (texture slots: -1 = none)."""
+    """UsdPreviewSurface parameters as kernels see them (texture slots: -1 = none;
+    ``normal_tex`` is a tangent-space normal map, ``Material.normal_texture``)."""
 
     diffuse: wp.vec3
     emissive: wp.vec3
@@ -40,6 +41,7 @@ class MaterialGPU:
     metallic_channel: int
     opacity_tex: int
     opacity_channel: int
+    normal_tex: int
 
 
 @wp.struct

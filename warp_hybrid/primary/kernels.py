@@ -200,7 +200,7 @@ def _textured(scene: SceneGPU, tri: int) -> bool:
     """Whether the triangle's material samples any texture."""
     m = scene.materials[scene.triangle_material[tri]]
     slots = wp.max(wp.max(m.diffuse_tex, m.emissive_tex), wp.max(m.roughness_tex, m.metallic_tex))
-    return wp.max(slots, m.opacity_tex) >= 0
+    return wp.max(wp.max(slots, m.opacity_tex), m.normal_tex) >= 0
 
 
 @wp.func(inline=True)

@@ -86,7 +86,10 @@ class Material:
     """UsdPreviewSurface parameters, linear colours.
 
     Texture slots hold an index into ``Scene.textures`` or -1.  Scalar slots read the
-    channel given by the ``*_channel`` field (0=r, 1=g, 2=b, 3=a).  ``diffuse_primvar``
+    channel given by the ``*_channel`` field (0=r, 1=g, 2=b, 3=a).  ``normal_texture``
+    is a tangent-space normal map (rgb after the binding's scale and bias = x along
+    dP/du, y along dP/dv, z along the interpolated normal; ``scene/device/surface.py``).
+    ``diffuse_primvar``
     names the colour primvar the diffuse colour follows per corner (``Scene.corner_colors``:
     displayColor or a UsdPrimvarReader's primvar), "" for none.
     """
@@ -113,6 +116,7 @@ class Material:
     metallic_channel: int = 0
     opacity_texture: int = -1
     opacity_channel: int = 3
+    normal_texture: int = -1
     diffuse_primvar: str = ""
 
     @property
@@ -153,6 +157,7 @@ class Material:
             self.roughness_texture,
             self.metallic_texture,
             self.opacity_texture,
+            self.normal_texture,
         )
 
 

@@ -10,6 +10,11 @@ input texels ``2i .. 2i + 2`` with weights ``(m - i, m, i + 1) / n``.  Because t
 blocks nest, every level is also the exact area average of level 0.  (OpenCV's
 ``INTER_AREA`` resize computes exactly this, 5-10x faster than numpy slicing.)
 
+Normal maps get the same chain: scale and bias are affine, so the box filter of the
+stored texels is the box filter of the decoded normals; those averages are shorter
+than unit where the normals vary, and the shading renormalises the filtered sample
+(``surface.perturb_normal``), which keeps the mean direction.
+
 ``DeviceScene`` packs the levels of an image one after the other into the flat texel
 array, level 0 first, so kernels find level ``L`` by adding up the sizes of the levels
 before it.

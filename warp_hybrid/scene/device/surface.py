@@ -23,6 +23,21 @@ centres; the result is ``filtered texel * scale + bias`` (UsdUVTexture).  Wrap m
 before any of this.  A vertex-coloured material (``FLAG_VERTEX_COLOR``) takes its
 diffuse colour from the interpolated ``corner_colors``.
 
+Normal maps (``MaterialGPU.normal_tex``, ``perturb_normal``): the sampled rgb (after
+scale and bias) is a tangent-space normal (x, y, z): x along the texture's +u (its
+right), y along its +v (up in the picture: texel row 0 is the top, so "green up",
+OpenGL style), z along the interpolated normal N.  The frame is per triangle: T and B
+solve dP = T du + B dv over the triangle's edges in the binding's uv (after its
+UsdTransform2d, so a rotated or mirrored mapping turns the frame with it); T is
+orthonormalised against N (Gram-Schmidt) and B = +-N x T, its sign that of the solved
+B (mirrored uvs give a left-handed frame).  The perturbed normal is
+normalize(T x + B y + N z) (filtered texels of a mip level are shorter than unit:
+renormalised).  It is built in the surface's own frame, and the facing flip (the
+normal turned towards the ray) is decided on N and applied to the result, so the
+back of a bump reads as a dent.  Degenerate uv triangles and samples with no
+tangential part (x = y = 0: a flat map) keep N bit for bit.  The geometric normal
+stays the face normal.
+
 Minification: material textures carry box-filtered mip chains (``mipmaps``).  The
 G-buffer passes know each pixel's uv footprint (``uv_footprint``: ray differentials
 of the camera rays, on the hit triangle's plane) and sample trilinearly at OpenGL's
@@ -48,9 +63,10 @@ class SurfaceHit:
     """A shaded surface point.
 
     position: world-space point.  normal: unit shading normal (interpolated corner
-    normals) facing against the ray.  geometric_normal: unit face normal facing
-    against the ray.  front_face: 1 when the ray hit the side the winding
-    (counter-clockwise) faces, 0 for the back side (glass: 1 = entering).
+    normals, perturbed by the material's normal map) facing against the ray.
+    geometric_normal: unit face normal facing against the ray.  front_face: 1 when
+    the ray hit the side the winding (counter-clockwise) faces, 0 for the back side
+    (glass: 1 = entering).
     albedo: diffuse colour * (1 - metallic), textures applied.  specular: F0.
     emission: emitted radiance.  material: index into the material table (-1 none).
     flags: the material's ``FLAG_*`` bits.
@@ -336,6 +352,50 @@ def is_cut_away(scene: SceneGPU, tri: int, bu: float, bv: float) -> bool:
 
 
 @wp.func(inline=True)
+def _texture_corner_uv(scene: SceneGPU, t: TextureGPU, corner: int) -> wp.vec2:
+    """The uv of flat corner ``corner`` through binding ``t``'s uv transform."""
+    return _texture_uv(t, scene.corner_uvs[corner])
+
+
+@wp.func(inline=True)
+def perturb_normal(scene: SceneGPU, tex: int, tri: int, n: wp.vec3, uv: wp.vec2, footprint: wp.vec4) -> wp.vec3:
+    """Unit normal ``n`` of triangle ``tri`` (interpolated, in the surface's own frame)
+    perturbed by the tangent-space normal map ``tex`` sampled at USD ``uv`` over the
+    pixel ``footprint`` (see the module docstring for the frame).  Returns ``n`` itself
+    where the uv triangle is degenerate, where its tangent is parallel to ``n`` and
+    where the sample has no tangential part."""
+    s = sample_texture_grad(scene, tex, uv, footprint)
+    if s[0] == 0.0 and s[1] == 0.0:
+        return n
+    t = scene.textures[tex]
+    k = 3 * tri
+    p0 = scene.points[scene.indices[k]]
+    e1 = scene.points[scene.indices[k + 1]] - p0
+    e2 = scene.points[scene.indices[k + 2]] - p0
+    uv0 = _texture_corner_uv(scene, t, k)
+    d1 = _texture_corner_uv(scene, t, k + 1) - uv0
+    d2 = _texture_corner_uv(scene, t, k + 2) - uv0
+    det = d1[0] * d2[1] - d2[0] * d1[1]
+    if not (wp.abs(det) > 1.0e-6 * (wp.abs(d1[0] * d2[1]) + wp.abs(d2[0] * d1[1]))):
+        return n
+    dpdu = (e1 * d2[1] - e2 * d1[1]) / det
+    dpdv = (e2 * d1[0] - e1 * d2[0]) / det
+    tangent = dpdu - n * wp.dot(n, dpdu)
+    t_len = wp.length(tangent)
+    if not (t_len > 1.0e-6 * wp.length(dpdu)):
+        return n
+    tangent = tangent / t_len
+    bitangent = wp.cross(n, tangent)
+    if wp.dot(bitangent, dpdv) < 0.0:
+        bitangent = -bitangent
+    p = tangent * s[0] + bitangent * s[1] + n * s[2]
+    p_len = wp.length(p)
+    if not (p_len > 0.0):
+        return n
+    return p / p_len
+
+
+@wp.func(inline=True)
 def surface_at_grad(
     scene: SceneGPU, tri: int, bu: float, bv: float, ray_dir: wp.vec3, footprint: wp.vec4
 ) -> SurfaceHit:
@@ -367,16 +427,6 @@ def surface_at_grad(
         h.front_face = 0
     h.geometric_normal = ng
 
-    n = scene.corner_normals[k] * bu + scene.corner_normals[k + 1] * bv + scene.corner_normals[k + 2] * bw
-    n_len = wp.length(n)
-    if n_len > 1.0e-12:
-        n = n / n_len
-    else:
-        n = ng
-    if wp.dot(n, ray_dir) > 0.0:
-        n = -n
-    h.normal = n
-
     uv = interpolate_uv(scene, tri, bu, bv)
     h.uv = uv
 
@@ -384,6 +434,19 @@ def surface_at_grad(
     m = scene.materials[mid]
     h.material = mid
     h.flags = m.flags
+
+    n = scene.corner_normals[k] * bu + scene.corner_normals[k + 1] * bv + scene.corner_normals[k + 2] * bw
+    n_len = wp.length(n)
+    if n_len > 1.0e-12:
+        n = n / n_len
+    else:
+        n = ng
+    away = wp.dot(n, ray_dir) > 0.0
+    if m.normal_tex >= 0:
+        n = perturb_normal(scene, m.normal_tex, tri, n, uv, footprint)
+    if away:
+        n = -n
+    h.normal = n
 
     diffuse = m.diffuse
     if (m.flags & FLAG_VERTEX_COLOR) != 0:

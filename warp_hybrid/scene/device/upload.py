@@ -82,6 +82,7 @@ def _material_gpu(m: Material) -> MaterialGPU:
     g.metallic_channel = int(m.metallic_channel)
     g.opacity_tex = int(m.opacity_texture)
     g.opacity_channel = int(m.opacity_channel)
+    g.normal_tex = int(m.normal_texture)
     return g
 
 

@@ -8,7 +8,7 @@ bindings and instance-root bindings resolve the way pxr defines them; per-face
 Surface: the universal-render-context surface output must lead to a
 ``UsdPreviewSurface``.  Inputs diffuseColor, emissiveColor, specularColor,
 useSpecularWorkflow, metallic, roughness, opacity, opacityThreshold and ior are read as
-constants or, for diffuse/emissive/roughness/metallic/opacity, from a ``UsdUVTexture``
+constants or, for diffuse/emissive/roughness/metallic/opacity/normal, from a ``UsdUVTexture``
 (file resolved by pxr relative to the layer that authored it; sourceColorSpace;
 wrapS/wrapT; scale/bias; the connected output picks the channel) whose ``st`` comes
 from a ``UsdPrimvarReader_float2``, through any ``UsdTransform2d`` nodes (their
@@ -18,13 +18,19 @@ with no file gives its ``fallback`` (times scale, plus bias) as a constant.
 per corner (``Material.diffuse_primvar``); other inputs fed by a primvar reader take
 the reader's fallback (warned).  A textured slot's constant keeps the input's
 schema default: the texture replaces it.  ``wrap = useMetadata`` means repeat
-(OpenCV exposes no wrap metadata).  Material ``customData`` ``sa:thinWalled``,
-``sa:attenuationColor`` and ``sa:attenuationDistance`` fill the volume fields.
-``doubleSided`` comes from the mesh, so one USD material can give two entries.
+(OpenCV exposes no wrap metadata).  ``normal`` is a tangent-space normal map
+(``Material.normal_texture``): its rgb times scale plus bias is the normal, used as
+authored (the usual 8-bit encoding authors scale (2, 2, 2, 1) and bias (-1, -1, -1,
+0); scale 1, bias 0 reads the texels as they are); ``sourceColorSpace = auto`` reads
+it raw (a normal map holds data, not colour); a missing file gives a flat normal map,
+not the checker.  A constant ``normal`` other than (0, 0, 1) is ignored (warned).
+Material ``customData`` ``sa:thinWalled``, ``sa:attenuationColor`` and
+``sa:attenuationDistance`` fill the volume fields.  ``doubleSided`` comes from the
+mesh, so one USD material can give two entries.
 
 Parameters are read once per source (at the first time code evaluated).  Anything
-else (other shader types, normal maps, displacement, clearcoat, occlusion, textures
-on unsupported inputs) is reported once per material.
+else (other shader types, displacement, clearcoat, occlusion, constant normals,
+textures on unsupported inputs) is reported once per material.
 """
 
 from __future__ import annotations
@@ -37,7 +43,7 @@ from pxr import Sdf, Usd, UsdShade
 from ..model import Material, Wrap
 from .primvars import PRIMVAR_READERS, PrimvarInput, primvar_input
 from .texture_transform import UV_TRANSFORM_ID, as_rows, transform2d_matrix
-from .textures import ImageLibrary
+from .textures import CHECKER_NAME, FLAT_NORMAL_NAME, ImageLibrary
 from .validate import Diagnostics
 
 _WRAPS = {
@@ -48,9 +54,10 @@ _WRAPS = {
     "useMetadata": Wrap.REPEAT,
 }
 _CHANNELS = {"rgb": -1, "rgba": -1, "r": 0, "g": 1, "b": 2, "a": 3}
+NORMAL_INPUT = "normal"
+_FLAT_NORMAL = (0.0, 0.0, 1.0)
 # Inputs the renderer ignores, with their neutral values: warn when set otherwise.
 _UNSUPPORTED_INPUTS = {
-    "normal": (0.0, 0.0, 1.0),
     "displacement": 0.0,
     "occlusion": 1.0,
     "clearcoat": 0.0,
@@ -187,6 +194,7 @@ class MaterialLibrary:
             m.opacity_channel = opacity_channel
         m.opacity_threshold, _, _ = scalar("opacityThreshold", m.opacity_threshold, False)
         m.ior, _, _ = scalar("ior", m.ior, False)
+        m.normal_texture = self._normal_map(shader, path, refs)
         self._warn_unsupported_inputs(shader, path)
         self._read_custom_data(prim, m)
         varnames = list(dict.fromkeys(r.varname for r in refs))
@@ -204,6 +212,17 @@ class MaterialLibrary:
         dist = prim.GetCustomDataByKey("sa:attenuationDistance")
         if dist is not None:
             m.attenuation_distance = float(dist)
+
+    def _normal_map(self, shader: UsdShade.Shader, path: str, refs: list[_TextureRef]) -> int:
+        """The texture binding of the ``normal`` input (appended to ``refs``), or -1;
+        a constant other than the flat (0, 0, 1) is warned and ignored."""
+        value, tex = self._slot(shader, NORMAL_INPUT, path, is_colour=True, texturable=True)
+        if tex is not None:
+            refs.append(tex)
+            return tex.binding
+        if value is not None and not np.allclose(np.asarray(value, dtype=np.float64), _FLAT_NORMAL, atol=1e-6):
+            self.diag.warn(f"UsdPreviewSurface input {NORMAL_INPUT} = {value} is not supported, ignored", path)
+        return -1
 
     def _warn_unsupported_inputs(self, shader: UsdShade.Shader, path: str) -> None:
         for name, neutral in _UNSUPPORTED_INPUTS.items():
@@ -301,12 +320,28 @@ class MaterialLibrary:
             return "", ""
         return value.resolvedPath or "", value.path
 
-    def _texture(self, node: UsdShade.Shader, output: str, path: str, slot: str, is_colour: bool) -> _TextureRef:
-        resolved, authored = self._asset(node)
+    def _colour_space(self, node: UsdShade.Shader, path: str, normal_map: bool) -> str:
+        """The texture's ``sourceColorSpace`` (unknown tokens warned, as auto); ``auto``
+        on a normal map is ``raw``: it holds vectors, not colours."""
         colour_space = str(self._node_value(node, "sourceColorSpace", "auto"))
         if colour_space not in ("sRGB", "raw", "auto"):
             self.diag.warn(f"texture {node.GetPath()} has sourceColorSpace {colour_space!r}; treated as auto", path)
             colour_space = "auto"
+        if normal_map and colour_space == "auto":
+            return "raw"
+        if normal_map and colour_space == "sRGB":
+            self.diag.warn(
+                f"normal map {node.GetPath()} has sourceColorSpace 'sRGB'; decoded as sRGB as authored", path
+            )
+        return colour_space
+
+    def _texture(self, node: UsdShade.Shader, output: str, path: str, slot: str, is_colour: bool) -> _TextureRef:
+        resolved, authored = self._asset(node)
+        normal_map = slot == NORMAL_INPUT
+        colour_space = self._colour_space(node, path, normal_map)
+        if normal_map and output not in ("rgb", "rgba"):
+            self.diag.warn(f"normal map {node.GetPath()} is read through output {output!r}; reading rgb", path)
+            output = "rgb"
         wraps = []
         for axis in ("wrapS", "wrapT"):
             token = str(self._node_value(node, axis, "useMetadata"))
@@ -323,7 +358,8 @@ class MaterialLibrary:
             broadcast = channel
             scale = (scale[channel],) * 3 + (scale[3],)
             bias = (bias[channel],) * 3 + (bias[3],)
-        image = self.images.image(resolved, authored, colour_space, path, broadcast)
+        fallback = FLAT_NORMAL_NAME if normal_map else CHECKER_NAME
+        image = self.images.image(resolved, authored, colour_space, path, broadcast, fallback)
         varname, uv_transform = self._uv_source(node, path)
         binding = self.images.binding(image, wraps[0], wraps[1], scale, bias, uv_transform)
         return _TextureRef(binding, max(channel, 0), varname)

@@ -10,7 +10,10 @@ the picture.  ``auto`` colour space: ``images.auto_is_srgb`` (sRGB for 8/16-bit
 images with 3 or 4 channels and for every JPEG, raw otherwise).
 
 A file that is missing or cannot be decoded is replaced by a 64x64 magenta/black
-checker (8x8-texel squares) and a warning naming the file and the prim that uses it.
+checker (8x8-texel squares) and a warning naming the file and the prim that uses it;
+a normal map's (``fallback=FLAT_NORMAL_NAME``) by a flat normal map instead: one texel
+(0, 0, 1), its bindings reset to scale 1, bias 0 and no uv transform, so it samples
+exactly (0, 0, 1) and leaves the surface's normals as they are.
 """
 
 from __future__ import annotations
@@ -30,6 +33,11 @@ from .images import auto_is_srgb, decode_raw  # noqa: E402
 from .validate import Diagnostics  # noqa: E402
 
 CHECKER_NAME = "<missing texture: magenta/black checker>"
+FLAT_NORMAL_NAME = "<missing normal map: flat normal>"
+_IDENTITY_UV = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0)
+# The (wrap_s, wrap_t, scale, bias, uv_transform) of every binding of the flat normal
+# fallback: it is sampled as is, whatever the lost file's node said.
+_FLAT_BINDING = (Wrap.REPEAT, Wrap.REPEAT, (1.0, 1.0, 1.0, 1.0), (0.0, 0.0, 0.0, 0.0), _IDENTITY_UV)
 
 
 def srgb_to_linear(x: np.ndarray) -> np.ndarray:
@@ -48,6 +56,18 @@ def checker_pixels(size: int = 64, square: int = 8) -> np.ndarray:
     magenta = np.array([1.0, 0.0, 1.0, 1.0], dtype=np.float32)
     black = np.array([0.0, 0.0, 0.0, 1.0], dtype=np.float32)
     return np.where(on, magenta, black).astype(np.float32)
+
+
+def flat_normal_pixels() -> np.ndarray:
+    """The fallback image for missing normal maps: one texel, the normal (0, 0, 1)."""
+    return np.array([[[0.0, 0.0, 1.0, 1.0]]], dtype=np.float32)
+
+
+# Fallback images by name: how to make the pixels, what the warning calls them.
+_FALLBACKS = {
+    CHECKER_NAME: (checker_pixels, "a magenta/black checker"),
+    FLAT_NORMAL_NAME: (flat_normal_pixels, "a flat normal map (the surface's own normals)"),
+}
 
 
 def read_asset_bytes(resolved_path: str) -> bytes:
@@ -114,6 +134,7 @@ class _Job:
     owner: str
     future: Future | None
     problem: str = ""
+    fallback: str = CHECKER_NAME
 
 
 class ImageLibrary:
@@ -137,22 +158,31 @@ class ImageLibrary:
         self._workers = workers or min(4, os.cpu_count() or 1)
         self._pool: ThreadPoolExecutor | None = None
         self._jobs: list[_Job] = []
-        self._image_keys: dict[tuple[str, str, int], int] = {}
+        self._image_keys: dict[tuple[str, str, int, str], int] = {}
         self._decoded: dict[tuple[str, str, int], int] = {}
-        self._checker_index = -1
+        self._fallback_index: dict[str, int] = {}
         self._binding_keys: dict[tuple, int] = {}
 
-    def image(self, resolved_path: str, authored_path: str, color_space: str, owner: str, broadcast: int = -1) -> int:
+    def image(
+        self,
+        resolved_path: str,
+        authored_path: str,
+        color_space: str,
+        owner: str,
+        broadcast: int = -1,
+        fallback: str = CHECKER_NAME,
+    ) -> int:
         """Index of the image for ``resolved_path`` (empty when pxr could not resolve
         ``authored_path``) decoded in ``color_space``; valid once ``finish`` ran.
 
         ``broadcast`` >= 0 copies that channel into r, g and b (a colour input fed by
         a single-channel output).  A missing or undecodable file warns (at ``finish``),
         naming the file and ``owner`` (the material or light prim), and yields the
-        checker image.
+        ``fallback`` image: the checker (``CHECKER_NAME``) or, for normal maps, the
+        flat normal (``FLAT_NORMAL_NAME``).
         """
         # An unresolved file is keyed by its authored name, so each missing file is reported by name.
-        key = (resolved_path or f"<unresolved {authored_path}>", color_space, broadcast)
+        key = (resolved_path or f"<unresolved {authored_path}>", color_space, broadcast, fallback)
         if key in self._image_keys:
             return self._image_keys[key]
         index = len(self.images)
@@ -166,17 +196,19 @@ class ImageLibrary:
                 broadcast,
                 owner,
                 self._pool.submit(load_image, resolved_path, color_space, broadcast),
+                fallback=fallback,
             )
         else:
-            job = _Job(index, "", broadcast, owner, None, f"texture file {authored_path!r} not found")
+            job = _Job(index, "", broadcast, owner, None, f"texture file {authored_path!r} not found", fallback)
         self._jobs.append(job)
         self._image_keys[key] = index
         return index
 
     def finish(self) -> None:
-        """Wait for pending decodes and settle the table: failures become the checker
-        (with a warning), images equal to one already loaded are merged, and every
-        index handed out is remapped to its final place."""
+        """Wait for pending decodes and settle the table: failures become their
+        fallback image (with a warning; the bindings of a flat normal sample it as is),
+        images equal to one already loaded are merged, and every index handed out is
+        remapped to its final place."""
         if not self._jobs:
             return
         jobs, self._jobs = self._jobs, []
@@ -191,11 +223,12 @@ class ImageLibrary:
                 except (OSError, ValueError, cv2.error) as exc:
                     job.problem = f"texture {job.path!r} cannot be read ({exc})"
             if result is None:
-                self.diag.warn(f"{job.problem}; using a magenta/black checker", job.owner)
-                if self._checker_index < 0:
-                    kept.append(TextureImage(CHECKER_NAME, checker_pixels()))
-                    self._checker_index = len(kept) - 1
-                remap[job.index] = self._checker_index
+                make, description = _FALLBACKS[job.fallback]
+                self.diag.warn(f"{job.problem}; using {description}", job.owner)
+                if job.fallback not in self._fallback_index:
+                    kept.append(TextureImage(job.fallback, make()))
+                    self._fallback_index[job.fallback] = len(kept) - 1
+                remap[job.index] = self._fallback_index[job.fallback]
                 continue
             pixels, applied = result
             decoded_key = (job.path, applied, job.broadcast)
@@ -211,9 +244,14 @@ class ImageLibrary:
         self._image_keys = {k: remap.get(v, v) for k, v in self._image_keys.items()}
         for t in self.textures:
             t.image = remap.get(t.image, t.image)
+            if self._is_flat_normal(t.image):
+                t.wrap_s, t.wrap_t, t.scale, t.bias, t.uv_transform = _FLAT_BINDING
         self._binding_keys = {}
         for i, t in enumerate(self.textures):
             self._binding_keys.setdefault((t.image, int(t.wrap_s), int(t.wrap_t), t.scale, t.bias, t.uv_transform), i)
+
+    def _is_flat_normal(self, image: int) -> bool:
+        return image == self._fallback_index.get(FLAT_NORMAL_NAME, -1)
 
     def binding(
         self,
@@ -222,9 +260,12 @@ class ImageLibrary:
         wrap_t: Wrap = Wrap.REPEAT,
         scale: tuple[float, float, float, float] = (1.0, 1.0, 1.0, 1.0),
         bias: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0),
-        uv_transform: tuple[float, float, float, float, float, float] = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0),
+        uv_transform: tuple[float, float, float, float, float, float] = _IDENTITY_UV,
     ) -> int:
-        """Index of the ``TextureBinding`` with these fields (created once)."""
+        """Index of the ``TextureBinding`` with these fields (created once); a binding
+        of the flat normal fallback takes ``_FLAT_BINDING``'s fields instead."""
+        if self._is_flat_normal(image):
+            wrap_s, wrap_t, scale, bias, uv_transform = _FLAT_BINDING
         key = (image, int(wrap_s), int(wrap_t), tuple(scale), tuple(bias), tuple(uv_transform))
         if key not in self._binding_keys:
             binding = TextureBinding(image, Wrap(wrap_s), Wrap(wrap_t), tuple(scale), tuple(bias), tuple(uv_transform))

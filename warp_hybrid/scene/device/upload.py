@@ -170,6 +170,12 @@ def _environment_gpu(scene: Scene) -> EnvironmentGPU:
     return env
 
 
+def _same_array(a: np.ndarray, b: np.ndarray) -> bool:
+    """Equal arrays: the same object (a source returns its unchanged arrays
+    themselves, read-only) or equal elements."""
+    return a is b or np.array_equal(a, b)
+
+
 def _f32(a: np.ndarray, width: int) -> np.ndarray:
     return np.ascontiguousarray(a.reshape(-1, width), dtype=np.float32)
 
@@ -262,8 +268,8 @@ class DeviceScene:
         if (
             scene.indices.shape != old.indices.shape
             or scene.points.shape != old.points.shape
-            or not np.array_equal(scene.indices, old.indices)
-            or not np.array_equal(scene.triangle_material, old.triangle_material)
+            or not _same_array(scene.indices, old.indices)
+            or not _same_array(scene.triangle_material, old.triangle_material)
         ):
             raise SceneError(
                 scene.path,
@@ -280,7 +286,8 @@ class DeviceScene:
         if scene.corner_colors is not old.corner_colors and not np.array_equal(scene.corner_colors, old.corner_colors):
             self.corner_colors = wp.array(_corner_colors(scene), dtype=wp.vec3, device=self.device)
         self.scene = scene
-        self._upload_lights(scene)
+        if scene.lights != old.lights:
+            self._upload_lights(scene)
         materials_changed = scene.materials is not old.materials and scene.materials != old.materials
         if materials_changed:
             self._upload_materials(scene)

@@ -143,3 +143,38 @@ def mesh_world_points(scene: Scene, prim_path: str) -> np.ndarray:
     """World positions (N, 3) float64 of the points of the mesh ``prim_path`` in ``scene``."""
     (r,) = [m for m in scene.meshes if m.prim_path == prim_path]
     return scene.points[r.first_point : r.first_point + r.point_count].astype(np.float64) + scene.origin
+
+
+def draw_mode_model(
+    stage: Usd.Stage,
+    path: str,
+    mode: str | None,
+    apply: bool | None = None,
+    kind: str | None = None,
+    color: tuple[float, float, float] | None = None,
+) -> UsdGeom.Xform:
+    """An Xform at ``path`` with GeomModelAPI applied; ``mode`` (None: unauthored, i.e.
+    inherited), ``apply`` (model:applyDrawMode; None: unauthored), ``kind`` and
+    ``color`` (model:drawModeColor) are authored when given."""
+    xform = UsdGeom.Xform.Define(stage, path)
+    model = UsdGeom.ModelAPI.Apply(xform.GetPrim())
+    if mode is not None:
+        model.CreateModelDrawModeAttr(mode)
+    if apply is not None:
+        model.CreateModelApplyDrawModeAttr(apply)
+    if kind is not None:
+        Usd.ModelAPI(xform.GetPrim()).SetKind(kind)
+    if color is not None:
+        model.CreateModelDrawModeColorAttr(Gf.Vec3f(*color))
+    return xform
+
+
+def materialx_surface(stage: Usd.Stage, material: UsdShade.Material, name: str = "Std") -> UsdShade.Shader:
+    """An ``ND_standard_surface_surfaceshader`` under ``material`` connected to its
+    ``outputs:mtlx:surface``."""
+    shader = UsdShade.Shader.Define(stage, material.GetPath().AppendChild(name))
+    shader.CreateIdAttr("ND_standard_surface_surfaceshader")
+    shader.CreateInput("base_color", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(0.8, 0.1, 0.1))
+    out = shader.CreateOutput("out", Sdf.ValueTypeNames.Token)
+    material.CreateSurfaceOutput("mtlx").ConnectToSource(out)
+    return shader

@@ -177,13 +177,34 @@ def read_implicit_mesh(prim: Usd.Prim, time: float, may_animate: bool = True) ->
     (see the module docstring for the density); ``may_animate=False`` skips the
     time-variability queries."""
     t = Usd.TimeCode(time)
-    points, tris, point_normals = _shape(prim, t)
-    tri_points = np.ascontiguousarray(tris, dtype=np.int32)
-    count = len(tri_points)
     authored = frozenset(prim.GetAuthoredPropertyNames())
     varying = may_animate and any(prim.GetAttribute(a).ValueMightBeTimeVarying() for a in _PARAMETERS if a in authored)
+    double_sided = bool(_get(prim, "doubleSided", t))
+    return _local_mesh(str(prim.GetPath()), *_shape(prim, t), double_sided, bool(varying), authored)
+
+
+def box_mesh(prim_path: str, lo: np.ndarray, hi: np.ndarray, time_varying: bool) -> LocalMesh:
+    """The axis-aligned box from ``lo`` to ``hi`` (3,) as a single-sided ``LocalMesh`` of
+    ``prim_path``, tessellated as a ``Cube`` is (12 triangles, flat face normals)."""
+    lo, hi = np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
+    points, tris, point_normals = _box(1.0)
+    return _local_mesh(prim_path, 0.5 * (lo + hi) + points * (hi - lo), tris, point_normals, False, time_varying)
+
+
+def _local_mesh(
+    prim_path: str,
+    points: np.ndarray,
+    tris: np.ndarray,
+    point_normals: np.ndarray,
+    double_sided: bool,
+    time_varying: bool,
+    authored: frozenset[str] = frozenset(),
+) -> LocalMesh:
+    """A tessellation as a ``LocalMesh`` whose every triangle is its own face."""
+    tri_points = np.ascontiguousarray(tris, dtype=np.int32)
+    count = len(tri_points)
     return LocalMesh(
-        prim_path=str(prim.GetPath()),
+        prim_path=prim_path,
         points=np.ascontiguousarray(points, dtype=np.float32),
         tri_corner=np.arange(3 * count, dtype=np.int64).reshape(count, 3),
         tri_points=tri_points,
@@ -191,7 +212,7 @@ def read_implicit_mesh(prim: Usd.Prim, time: float, may_animate: bool = True) ->
         corner_normals=np.take(point_normals.astype(np.float32), tri_points, axis=0),
         face_count=count,
         face_vertex_count=3 * count,
-        double_sided=bool(_get(prim, "doubleSided", t)),
-        time_varying=bool(varying),
+        double_sided=double_sided,
+        time_varying=time_varying,
         authored=authored,
     )

@@ -36,6 +36,9 @@ instance proxies and share one triangulation per prototype mesh):
   stage instead);
 * ``UsdGeom.PointInstancer``: one batch per prototype mesh with all its instance
   transforms (``ComputeInstanceTransformsAtTime``; inactive/invisible ids masked);
+* models whose ``model:drawMode`` applies (``draw_mode``): drawn as the box of their
+  bounds in their drawModeColor (bounds, cards) or not at all (origin) instead of their
+  subtree, in PointInstancer prototypes too;
 * UsdLux lights (see ``lights``) and every ``UsdGeom.Camera`` (visible or not);
 * anything else that draws (other gprims such as Points, BasisCurves, NURBS,
   volumes; light filters; mesh lights) is reported once per prim and skipped, never
@@ -79,9 +82,10 @@ from ..local_frame import choose_origin, local_camera, local_light, local_points
 from ..model import Camera, Environment, Light, Material, MeshRange, Scene
 from .camera import FRAMING_CAMERA_NAME, framing_camera, read_camera
 from .default_light import DEFAULT_LIGHT_WARNING, default_dome, headlight, uses_default_lighting
+from .draw_mode import StandIn, stand_in, stand_in_mesh
 from .gprims import empty_mesh, is_drawn, read_gprim
 from .lights import read_lights
-from .materials import MaterialLibrary, bound_material
+from .materials import DEFAULT_UV_SET, MaterialLibrary, bound_material
 from .meshes import LocalMesh, MalformedMeshError, WorldMesh, corner_uvs, to_world
 from .primvars import DISPLAY_COLOR, PrimvarInput, corner_colors, read_display_color
 from .skel import NOT_APPLIED, Skinner, Skinning
@@ -108,7 +112,8 @@ _GEOMETRY = ("points", "indices", "corner_normals", "corner_uvs", "triangle_mate
 @dataclass
 class _Item:
     """One mesh to draw, once or as a batch of instances (``matrices`` (K, 4, 4));
-    ``skin``: its skinning, for a mesh bound to a Skeleton."""
+    ``skin``: its skinning, for a mesh bound to a Skeleton; ``stand_in``: for a model
+    drawn as the box of its bounds (``draw_mode``), ``prim`` being the model."""
 
     key: str
     prim: Usd.Prim
@@ -117,6 +122,7 @@ class _Item:
     animated: bool
     names: list[str]
     skin: Skinning | None = None
+    stand_in: StandIn | None = None
 
 
 @dataclass
@@ -479,6 +485,13 @@ class UsdSceneSource:
             if hidden or (pinfo is not None and pinfo.purpose in _SKIPPED_PURPOSES):
                 continue
             name = str(path)
+            model = stand_in(prim, tc, diag)
+            if model is not None:  # its subtree is not drawn (as if hidden: cameras still count)
+                state[path] = (True, pinfo, xanim)
+                if model.draws_box:
+                    m = _matrix(xcache.GetLocalToWorldTransform(prim))[None]
+                    items.append(_Item(name, prim, name, m, xanim, [name], stand_in=model))
+                continue
             if is_drawn(prim):
                 self._check_mesh_features(prim, unauthored_subdiv)
                 m = _matrix(xcache.GetLocalToWorldTransform(prim))[None]
@@ -582,17 +595,18 @@ class UsdSceneSource:
             proto = self.stage.GetPrimAtPath(target)
             if not sel.size or not proto:
                 continue
-            for mesh, rel, rel_animated in self._prototype_meshes(proto, tc, xcache, watch):
+            for mesh, rel, rel_animated, model in self._prototype_meshes(proto, tc, xcache, watch):
                 matrices = rel[None] @ xforms[sel] @ world[None]
                 mesh_name = str(mesh.GetPath())
                 items.append(
                     _Item(
                         key=f"{name}[{j}]{mesh_name}",
                         prim=mesh,
-                        source=_source_key(mesh),
+                        source=_source_key(mesh) if model is None else mesh_name,
                         matrices=matrices,
                         animated=animated or rel_animated,
                         names=[f"{mesh_name}@{name}[{i}]" for i in sel],
+                        stand_in=model,
                     )
                 )
         return items, animated or any(item.animated for item in items)
@@ -604,8 +618,9 @@ class UsdSceneSource:
         xcache: UsdGeom.XformCache,
         watch: dict[Sdf.Path, tuple[Usd.Attribute, object]] | None = None,
     ):
-        """(mesh prim, transform relative to the prototype root, animated) for each
-        drawable mesh of a PointInstancer prototype; animated covers the prototype
+        """(mesh prim, transform relative to the prototype root, animated, stand-in) for
+        each drawable mesh of a PointInstancer prototype and each model in it drawn as a
+        box (``draw_mode``; its stand-in, else None); animated covers the prototype
         root's own transform, which the instance transforms include."""
         diag = self.diagnostics
         out = []
@@ -626,21 +641,33 @@ class UsdSceneSource:
                 it.PruneChildren()
                 continue
             name = str(prim.GetPath())
-            if prim.IsA(UsdGeom.PointInstancer):
+            model = stand_in(prim, tc, diag)
+            if model is not None:
+                it.PruneChildren()
+                if model.draws_box:
+                    out.append((prim, *self._relative_transform(prim, proto, xcache), model))
+            elif prim.IsA(UsdGeom.PointInstancer):
                 diag.warn("nested PointInstancers are not supported; skipped", name)
                 it.PruneChildren()
             elif is_drawn(prim):
                 self._check_mesh_features(prim, [], in_prototype=True)
-                rel, _resets = xcache.ComputeRelativeTransform(prim, proto)
-                animated = False
-                p = prim
-                while self._may_animate and p:
-                    animated = animated or UsdGeom.Xformable(p).TransformMightBeTimeVarying()
-                    p = None if p == proto else p.GetParent()
-                out.append((prim, _matrix(rel), animated))
+                out.append((prim, *self._relative_transform(prim, proto, xcache), None))
             elif prim.IsA(UsdGeom.Gprim):
                 diag.warn(f"{prim.GetTypeName()} prims are not supported (only UsdGeom.Mesh); skipped", name)
         return out
+
+    def _relative_transform(
+        self, prim: Usd.Prim, proto: Usd.Prim, xcache: UsdGeom.XformCache
+    ) -> tuple[np.ndarray, bool]:
+        """(transform of ``prim`` relative to the prototype root ``proto``, whether it may
+        vary: the transform of ``prim`` or of an ancestor up to ``proto`` included)."""
+        rel, _resets = xcache.ComputeRelativeTransform(prim, proto)
+        animated = False
+        p = prim
+        while self._may_animate and p:
+            animated = animated or UsdGeom.Xformable(p).TransformMightBeTimeVarying()
+            p = None if p == proto else p.GetParent()
+        return _matrix(rel), animated
 
     # -- per-item data ----------------------------------------------------------------------------
 
@@ -655,7 +682,7 @@ class UsdSceneSource:
                 self._local[item.source] = local
         if not np.isfinite(item.matrices).all():
             raise SceneError(self.path, "its local-to-world transform is not finite", item.names[0])
-        tri_material, varname, textured, colour_source = self._triangle_materials(item.prim, local)
+        tri_material, varname, textured, colour_source = self._triangle_materials(item.prim, local, item.stand_in)
         uvs = corner_uvs(local, item.prim, varname, time, self.diagnostics, textured)
         colours = None
         if colour_source is not None:
@@ -670,7 +697,9 @@ class UsdSceneSource:
     def _read_local(self, item: _Item, time: float) -> LocalMesh:
         """The item's prim in its local space (skinned and subdivided as it asks); a
         malformed mesh is skipped with a warning naming it (an empty mesh), or raises
-        when the source is strict."""
+        when the source is strict.  A model's stand-in is the box of its bounds."""
+        if item.stand_in is not None:
+            return stand_in_mesh(item.prim, time, self._may_animate)
         try:
             skin = item.skin
             points = None if skin is None else self._skinner.local_points(skin, time)
@@ -697,13 +726,17 @@ class UsdSceneSource:
         return lib.default(double_sided)
 
     def _triangle_materials(
-        self, prim: Usd.Prim, local: LocalMesh
+        self, prim: Usd.Prim, local: LocalMesh, model: StandIn | None
     ) -> tuple[np.ndarray, str, bool, PrimvarInput | None]:
         """Per-triangle material indices (GeomSubset bindings honoured), the uv
         primvar their textures read, whether any of them is textured, and the colour
-        primvar their vertex-coloured materials follow (None when none does)."""
+        primvar their vertex-coloured materials follow (None when none does).  The box
+        of a ``model`` drawn as its stand-in takes its drawModeColor as a displayColor."""
         lib = self._materials
         ds = local.double_sided
+        if model is not None:
+            index = lib.display_color(str(prim.GetPath()), model.color, ds)
+            return np.full(local.triangle_count, index, dtype=np.int32), DEFAULT_UV_SET, False, None
         mesh_index = self._mesh_material(prim, bound_material(prim), ds)
         used = [mesh_index]
         subsets = UsdShade.MaterialBindingAPI(prim).GetMaterialBindSubsets()

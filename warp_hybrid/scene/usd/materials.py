@@ -6,7 +6,12 @@ bindings and instance-root bindings resolve the way pxr defines them; per-face
 ``GeomSubset`` bindings (family ``materialBind``) are honoured by the mesh reader.
 
 Surface: the universal-render-context surface output must lead to a
-``UsdPreviewSurface``.  Inputs diffuseColor, emissiveColor, specularColor,
+``UsdPreviewSurface``; other render contexts' outputs are other renderers' (a material
+that also carries ``outputs:mtlx:surface`` is drawn with its UsdPreviewSurface, without
+a warning).  MaterialX cannot be read (usd-core ships no MaterialX plugin): a material
+whose only surface is a MaterialX network (``outputs:mtlx:surface``, or a universal
+surface shader with an ``ND_*`` id) is drawn default grey with one warning naming it,
+as is any other material without a UsdPreviewSurface.  Inputs diffuseColor, emissiveColor, specularColor,
 useSpecularWorkflow, metallic, roughness, opacity, opacityThreshold and ior are read as
 constants or, for diffuse/emissive/roughness/metallic/opacity/normal, from a ``UsdUVTexture``
 (file resolved by pxr relative to the layer that authored it; sourceColorSpace;
@@ -64,6 +69,9 @@ _UNSUPPORTED_INPUTS = {
     "clearcoatRoughness": 0.01,
 }
 DEFAULT_UV_SET = "st"
+# MaterialX: usd-core ships no MaterialX plugin, so such networks cannot be read.
+MATERIALX_CONTEXT = "mtlx"
+MATERIALX_NODE_PREFIX = "ND_"
 
 
 @dataclass
@@ -83,6 +91,39 @@ def bound_material(prim: Usd.Prim) -> UsdShade.Material | None:
 
 def _is_output(attr: Usd.Attribute) -> bool:
     return UsdShade.Utils.GetType(attr.GetName()) == UsdShade.AttributeType.Output
+
+
+def _shader_text(shader: UsdShade.Shader) -> str:
+    return f"{shader.GetPath()}, id {shader.GetShaderId()!r}"
+
+
+def _materialx_surface(material: UsdShade.Material, universal: UsdShade.Shader | None) -> str | None:
+    """How ``material``'s surface is a MaterialX network (its ``outputs:mtlx:surface``, or
+    a universal surface shader whose id is a MaterialX node definition ``ND_*``), or None."""
+    if universal is not None and str(universal.GetShaderId() or "").startswith(MATERIALX_NODE_PREFIX):
+        return f"outputs:surface -> {_shader_text(universal)}"
+    if not material.GetSurfaceOutput(MATERIALX_CONTEXT):
+        return None
+    shader, _name, _type = material.ComputeSurfaceSource(MATERIALX_CONTEXT)  # falls back to the universal one
+    if shader and shader.GetPrim().IsValid() and (universal is None or shader.GetPrim() != universal.GetPrim()):
+        return f"outputs:{MATERIALX_CONTEXT}:surface -> {_shader_text(shader)}"
+    return f"outputs:{MATERIALX_CONTEXT}:surface"
+
+
+def _no_preview_surface(material: UsdShade.Material, universal: UsdShade.Shader | None) -> str:
+    """The warning for a material whose universal surface is not a UsdPreviewSurface
+    (``universal``: the shader it leads to, None when it leads nowhere); it is drawn grey."""
+    materialx = _materialx_surface(material, universal)
+    if materialx is not None:
+        return (
+            f"material is a MaterialX network ({materialx}); MaterialX is not supported (usd-core has no "
+            "MaterialX plugin) and the material has no UsdPreviewSurface on outputs:surface; using default grey"
+        )
+    if universal is None:
+        contexts = [o.GetBaseName() for o in material.GetSurfaceOutputs()]
+        return f"material has no universal UsdPreviewSurface surface (surface outputs: {contexts}); using default grey"
+    shader_id = universal.GetShaderId()
+    return f"surface shader {universal.GetPath()} is {shader_id!r}, not UsdPreviewSurface; using default grey"
 
 
 class MaterialLibrary:
@@ -147,17 +188,9 @@ class MaterialLibrary:
         path = str(material.GetPath())
         shader, _name, _type = material.ComputeSurfaceSource("")
         if not shader or not shader.GetPrim().IsValid():
-            contexts = [o.GetBaseName() for o in material.GetSurfaceOutputs()]
-            self.diag.warn(
-                f"material has no universal UsdPreviewSurface surface (surface outputs: {contexts}); using default grey",
-                path,
-            )
-            return Material(path), DEFAULT_UV_SET
-        shader_id = shader.GetShaderId()
-        if shader_id != "UsdPreviewSurface":
-            self.diag.warn(
-                f"surface shader {shader.GetPath()} is {shader_id!r}, not UsdPreviewSurface; using default grey", path
-            )
+            shader = None
+        if shader is None or shader.GetShaderId() != "UsdPreviewSurface":
+            self.diag.warn(_no_preview_surface(material, shader), path)
             return Material(path), DEFAULT_UV_SET
         prim = material.GetPrim()
         m = Material(path)

@@ -119,3 +119,31 @@ def test_cluster_boxes_follow_moving_points(device: str) -> None:
             raster.render(ds, cam, gbuffer, StageTimer())
             hits.append(float((gbuffer.triangle_id.numpy() >= 0).mean()))
     assert hits[0] == 0.0 and hits[1] > 0.1
+
+
+def test_a_new_scene_gets_its_own_boxes(device: str) -> None:
+    """One rasterizer drawing a scene, then another scene of as many triangles (same
+    geometry version) in another place: the boxes are the new scene's, not the first's
+    (nothing keyed on an object id that a freed scene's successor may reuse)."""
+    import gc
+
+    from warp_hybrid.core.gbuffer import GBuffer
+    from warp_hybrid.parallel import Launcher
+    from warp_hybrid.primary import Rasterizer
+    from warp_hybrid.scene.device import DeviceScene
+    from warp_hybrid.timing import StageTimer
+
+    camera = look_at_camera((0.0, 0.0, 5.0), (0.0, 0.0, 0.0), hfov_deg=60.0)
+    cam = make_camera_gpu(camera, 16, 12)
+    gbuffer = GBuffer(16, 12, device)
+    hits = []
+    with Launcher(device, threads=1) as launcher:
+        raster = Rasterizer(launcher)
+        for z in (8.0, 0.0):  # behind the camera, then in front of it
+            scene = make_scene([quad((-1.0, -1.0, z), (2.0, 0.0, 0.0), (0.0, 2.0, 0.0))], [Material("m")])
+            ds = DeviceScene(scene, device)
+            raster.render(ds, cam, gbuffer, StageTimer())
+            hits.append(float((gbuffer.triangle_id.numpy() >= 0).mean()))
+            del ds
+            gc.collect()
+    assert hits[0] == 0.0 and hits[1] > 0.1

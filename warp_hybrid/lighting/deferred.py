@@ -5,6 +5,10 @@ Per pixel: ``shading.shade_surface`` with the sum over the scene's lights of
 ``direct_light``, i.e. emission + direct diffuse/specular + the dome's SH diffuse and
 prefiltered glossy light (+ the raster approximation for transmissive materials).
 Background pixels get the dome's radiance along the camera ray (black without a dome).
+With shadow maps (``RenderSettings.shadow_maps``; ``shadow_maps.py``) each light's direct
+term is multiplied by its shadow-map visibility at the pixel's point (a kernel variant
+of its own, so the unshadowed kernel is untouched); without them the raster layer is
+unshadowed.
 Every pixel is shaded in every mode, the focus window's too: the raster layer is whole,
 so automatic exposure is metered on it whatever the window (one exposure per frame,
 independent of the gaze), and wherever the budget guard stops tracing short of the
@@ -20,17 +24,23 @@ the module compiles with FMA contraction.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import warp as wp
 
 from ..core.camera import CameraGPU, pixel_ray
 from ..core.gbuffer import GBuffer, GBufferArrays
 from ..core.passes import FrameContext, RenderPass
-from ..core.scene_gpu import AmbientGPU, SceneGPU
+from ..core.scene_gpu import FLAG_TRANSMISSIVE, AmbientGPU, SceneGPU
 from ..parallel import Launcher
 from ..scene.device import DeviceScene
 from ..scene.device.environment import environment_radiance
 from ..timing import StageTimer
 from .shading import diffuse_albedo, direct_light, shade_surface
+from .shadow_map_kernels import ShadowMapsGPU, shadow_visibility
+
+if TYPE_CHECKING:
+    from .shadow_maps import ShadowMaps
 
 # FMA contraction across statements (what CUDA does by default): ~10-20% faster on the
 # CPU; results change by rounding only.
@@ -38,71 +48,115 @@ _CPU_FLAGS = f"{wp.config.cpu_compiler_flags or '-march=native'} -ffp-contract=f
 wp.set_module_options({"enable_backward": False, "cpu_compiler_flags": _CPU_FLAGS})
 
 
-@wp.func(inline=True)
-def shade_pixel(scene: SceneGPU, amb: AmbientGPU, cam: CameraGPU, gb: GBufferArrays, x: int, y: int) -> wp.vec3:
-    """Outgoing radiance of pixel (x, y), unshadowed."""
-    if gb.triangle_id[y, x] < 0:
-        return environment_radiance(scene, pixel_ray(cam, x, y))  # any length will do
-    p = gb.position[y, x]
-    n = gb.normal[y, x]
-    v = wp.normalize(cam.origin - p)
-    opt = gb.optics[y, x]
-    flags = int(0)
-    mid = gb.material_id[y, x]
-    if mid >= 0:
-        flags = scene.materials[mid].flags
-    base = gb.albedo[y, x]
-    f0 = gb.specular[y, x]
-    kd = diffuse_albedo(scene, n, v, base, opt.opacity, opt.ior, flags)
-    direct = wp.vec3(0.0, 0.0, 0.0)
-    for i in range(scene.light_count):
-        direct += direct_light(scene, i, p, n, v, kd, f0, opt.roughness)
-    return shade_surface(
-        scene, amb, n, v, base, kd, f0, opt.roughness, gb.emission[y, x], opt.opacity, opt.ior, flags, direct
-    )
+def _make_shade_kernel(shadowed: bool) -> wp.Kernel:
+    """The lighting kernel: per pixel, ``shade_pixel`` into ``color_out``.  With
+    ``shadowed`` each light's direct term is multiplied by its shadow-map visibility
+    (``shadow_map_kernels.shadow_visibility``), in a module of its own (compiled only
+    when shadow maps are on, with the same options); without, the maps argument is
+    never read and the kernel is the lighting module's own, unchanged."""
+
+    @wp.func(inline=True)
+    def shade_pixel(
+        scene: SceneGPU, amb: AmbientGPU, cam: CameraGPU, gb: GBufferArrays, sm: ShadowMapsGPU, x: int, y: int
+    ) -> wp.vec3:
+        """Outgoing radiance of pixel (x, y)."""
+        if gb.triangle_id[y, x] < 0:
+            return environment_radiance(scene, pixel_ray(cam, x, y))  # any length will do
+        p = gb.position[y, x]
+        n = gb.normal[y, x]
+        v = wp.normalize(cam.origin - p)
+        opt = gb.optics[y, x]
+        flags = int(0)
+        mid = gb.material_id[y, x]
+        if mid >= 0:
+            flags = scene.materials[mid].flags
+        base = gb.albedo[y, x]
+        f0 = gb.specular[y, x]
+        kd = diffuse_albedo(scene, n, v, base, opt.opacity, opt.ior, flags)
+        direct = wp.vec3(0.0, 0.0, 0.0)
+        for i in range(scene.light_count):
+            if wp.static(shadowed):
+                c = direct_light(scene, i, p, n, v, kd, f0, opt.roughness)
+                if c[0] > 0.0 or c[1] > 0.0 or c[2] > 0.0:
+                    transmissive = (flags & FLAG_TRANSMISSIVE) != 0
+                    c = c * shadow_visibility(scene, sm, i, p, gb.geometric_normal[y, x], transmissive)
+                direct += c
+            else:
+                direct += direct_light(scene, i, p, n, v, kd, f0, opt.roughness)
+        return shade_surface(
+            scene, amb, n, v, base, kd, f0, opt.roughness, gb.emission[y, x], opt.opacity, opt.ior, flags, direct
+        )
+
+    def shade_pixels(
+        scene: SceneGPU,
+        amb: AmbientGPU,
+        cam: CameraGPU,
+        gb: GBufferArrays,
+        sm: ShadowMapsGPU,
+        color_out: wp.array2d(dtype=wp.vec3),
+        row0: int,
+        row_step: int,
+        cols: int,
+    ):
+        r, c = wp.tid()
+        y = row0 + r * row_step
+        for x in range(c * cols, wp.min(c * cols + cols, cam.width)):
+            color_out[y, x] = shade_pixel(scene, amb, cam, gb, sm, x, y)
+
+    if shadowed:
+        options = {"enable_backward": False, "cpu_compiler_flags": _CPU_FLAGS}
+        return wp.kernel(shade_pixels, module="unique", module_options=options)
+    return wp.kernel(shade_pixels)
 
 
-@wp.kernel
-def shade_pixels(
-    scene: SceneGPU,
-    amb: AmbientGPU,
-    cam: CameraGPU,
-    gb: GBufferArrays,
-    color_out: wp.array2d(dtype=wp.vec3),
-    row0: int,
-    row_step: int,
-    cols: int,
-):
-    """Per pixel: ``shade_pixel`` into ``color_out``."""
-    r, c = wp.tid()
-    y = row0 + r * row_step
-    for x in range(c * cols, wp.min(c * cols + cols, cam.width)):
-        color_out[y, x] = shade_pixel(scene, amb, cam, gb, x, y)
+#: The lighting kernel without and with shadow maps.
+SHADE_KERNELS = {shadowed: _make_shade_kernel(shadowed) for shadowed in (False, True)}
+#: The maps argument of the unshadowed kernel (never read).
+_NO_MAPS = ShadowMapsGPU()
 
 
 class DeferredLighting(RenderPass):
-    """The "lighting" stage: G-buffer in, linear HDR colour (the raster layer) out."""
+    """The "lighting" stage: G-buffer in, linear HDR colour (the raster layer) out,
+    shadowed by ``shadow_maps`` when given (the renderer's "shadow_maps" pass, which
+    runs earlier in the frame)."""
 
-    def __init__(self, launcher: Launcher) -> None:
+    def __init__(self, launcher: Launcher, shadow_maps: ShadowMaps | None = None) -> None:
         """Shade on ``launcher``'s device, splitting rows across its threads."""
         self.launcher = launcher
-        launcher.ensure_loaded(shade_pixels)  # compiles the lighting module up front
+        self.shadow_maps = shadow_maps
+        launcher.ensure_loaded(SHADE_KERNELS[shadow_maps is not None])  # compiles the lighting module up front
 
     def execute(self, frame: FrameContext) -> None:
         """Shade ``frame``'s G-buffer into its raster layer (every pixel)."""
         assert self.scene is not None, "set_scene first"
-        self.shade(self.scene, frame.camera, frame.gbuffer, frame.buffers.raster_color, frame.timer)
+        maps = self.shadow_maps.gpu if self.shadow_maps is not None else None
+        self.shade(self.scene, frame.camera, frame.gbuffer, frame.buffers.raster_color, frame.timer, maps)
 
     def shade(
-        self, scene: DeviceScene, camera: CameraGPU, gbuffer: GBuffer, color_out: wp.array, timer: StageTimer
+        self,
+        scene: DeviceScene,
+        camera: CameraGPU,
+        gbuffer: GBuffer,
+        color_out: wp.array,
+        timer: StageTimer,
+        maps: ShadowMapsGPU | None = None,
     ) -> None:
-        """Write the linear radiance of every pixel, (H, W) vec3, into ``color_out``."""
+        """Write the linear radiance of every pixel, (H, W) vec3, into ``color_out``
+        (each light's direct term times its visibility in ``maps`` when given)."""
         h, w = gbuffer.height, gbuffer.width
         if tuple(color_out.shape) != (h, w) or (camera.width, camera.height) != (w, h):
             raise ValueError(
                 f"color_out {tuple(color_out.shape)} and camera {camera.width}x{camera.height} "
                 f"must match the G-buffer ({w}x{h})"
             )
-        inputs = [scene.gpu, scene.ambient, camera, gbuffer.kernel_arrays(), color_out]
+        kernel = SHADE_KERNELS[maps is not None]
+        inputs = [
+            scene.gpu,
+            scene.ambient,
+            camera,
+            gbuffer.kernel_arrays(),
+            _NO_MAPS if maps is None else maps,
+            color_out,
+        ]
         with timer.stage("lighting"):
-            self.launcher.launch_pixels(shade_pixels, h, w, inputs)
+            self.launcher.launch_pixels(kernel, h, w, inputs)

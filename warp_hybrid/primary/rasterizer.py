@@ -18,6 +18,8 @@
 
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 import warp as wp
 
@@ -43,7 +45,8 @@ class Rasterizer(PrimaryVisibility):
         self._keys: wp.array | None = None
         self._points: ProjectedPoints | None = None
         self._bounds: wp.array | None = None
-        self._bounds_of: tuple[int, int] | None = None  # (id of the DeviceScene, its geometry_version)
+        # The scene (weakly: never kept alive for this) and geometry_version the boxes are of.
+        self._bounds_of: tuple[weakref.ref, int] | None = None
 
     def _slices(self, height: int, width: int) -> wp.array:
         """The key buffer, one (height, width) slice per thread, reused."""
@@ -67,12 +70,13 @@ class Rasterizer(PrimaryVisibility):
         """The clusters' boxes (clusters, 2) vec3, computed again when the points moved."""
         count = scene.scene.triangle_count
         clusters = -(-count // kernels.CLUSTER_TRIANGLES)
-        key = (id(scene), scene.geometry_version)
-        if self._bounds is None or self._bounds.shape[0] != clusters or self._bounds_of != key:
+        known = self._bounds_of
+        fresh = known is not None and known[0]() is scene and known[1] == scene.geometry_version
+        if self._bounds is None or self._bounds.shape[0] != clusters or not fresh:
             if self._bounds is None or self._bounds.shape[0] != clusters:
                 self._bounds = wp.empty((clusters, 2), dtype=wp.vec3, device=self.launcher.device)
             self.launcher.launch_items(kernels.cluster_bounds_kernel, clusters, [scene.gpu, count, self._bounds])
-            self._bounds_of = key
+            self._bounds_of = (weakref.ref(scene), scene.geometry_version)
         return self._bounds
 
     def _rasterize(self, scene: DeviceScene, camera: CameraGPU, keys: wp.array, mode: int, clear: int) -> None:

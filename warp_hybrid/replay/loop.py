@@ -44,6 +44,7 @@ AFTER_TRACE_STAGES = ("relight", "accumulate", "compose", "tonemap", "aa", "read
 FRAME_STAGES = (
     "scene_update",
     "refit",
+    "shadow_maps",
     "clear",
     "raster",
     "resolve",

@@ -173,6 +173,25 @@ def _add_frame_arguments(p: argparse.ArgumentParser, window_help: str, window_de
         help="1: hard shadows; N: N samples over area/sphere lights",
     )
     p.add_argument(
+        "--shadow-maps",
+        action="store_true",
+        default=defaults.shadow_maps,
+        help="shadow the raster layer (outside the traced window) with shadow maps (default off: unshadowed)",
+    )
+    p.add_argument(
+        "--shadow-map-size",
+        type=int,
+        default=defaults.shadow_map_size,
+        metavar="N",
+        help=f"shadow map texels per face side (default {defaults.shadow_map_size})",
+    )
+    p.add_argument(
+        "--indirect",
+        action="store_true",
+        default=defaults.indirect,
+        help="add the lights' interreflected light (one estimate from their power) to both layers (default off)",
+    )
+    p.add_argument(
         "--exposure", type=parse_exposure, default=defaults.exposure_ev, help="'auto' (default) or stops (EV)"
     )
     p.add_argument("--tonemap", choices=TONEMAPS, default=defaults.tonemap, help="tone mapping operator")
@@ -240,6 +259,9 @@ def _render_settings(args: argparse.Namespace) -> RenderSettings:
         feather_px=args.feather,
         max_depth=args.max_depth,
         shadow_samples=args.shadow_samples,
+        shadow_maps=args.shadow_maps,
+        shadow_map_size=args.shadow_map_size,
+        indirect=args.indirect,
         exposure_ev=args.exposure,
         tonemap=args.tonemap,
         antialias=args.antialias,

@@ -7,7 +7,8 @@ and returns a ``Frame`` with the colour, the G-buffer AOVs and per-stage statist
 There are no module-level globals; the clock is injected.
 
 A frame runs the mode's passes in order (``core.passes``), each on the frame's
-``FrameContext``: primary visibility (raster or ray cast) -> focus region (hybrid and
+``FrameContext``: shadow maps (raster and hybrid, when on; drawn again only when the
+scene moved) -> primary visibility (raster or ray cast) -> focus region (hybrid and
 full) -> deferred lighting (raster and hybrid; every pixel) ->
 tracing (hybrid and full; in hybrid mode under the budget guard, ``trace.guard``, when the
 frame has a deadline) -> compose (hybrid) -> post.  A supersampled frame (``spp`` > 1, full
@@ -34,6 +35,7 @@ from .errors import ArgumentTypeError, RenderSettingsError
 from .field_types import check_field_types
 from .focus import SHAPES, FocusRegionBuilder, FocusWindow
 from .lighting.deferred import DeferredLighting
+from .lighting.shadow_maps import DEFAULT_MAP_SIZE, MAX_MAP_SIZE, MIN_MAP_SIZE, ShadowMaps
 from .memory import check_memory
 from .parallel import Launcher, default_thread_count
 from .post.postprocess import TONEMAPS, PostProcess
@@ -69,6 +71,13 @@ class RenderSettings:
     (``supersample``: box filter), drawn from ``sample_seed``.  ``fovea_spp``: samples
     per pixel inside the focus window (hybrid mode only; ``trace.fovea``): N > 1 traces
     the window with the same N-sample pattern, the rest of the frame stays at one.
+    ``shadow_maps``: shadow the raster layer (deferred lighting, raster and hybrid
+    modes; the traced window has its own shadow rays) with every light's shadow map
+    (``lighting.shadow_maps``), ``shadow_map_size`` texels square per face (a cube map
+    of six faces per sphere/rect/disk light, one face per distant light); off by default.
+    ``indirect``: both layers add the lights' interreflected light, one estimate per
+    scene from their emitted power (``lighting.indirect``), to the diffuse ambient, so
+    shadowed surfaces are not black in a scene without a dome; off by default.
     """
 
     width: int = 640
@@ -88,6 +97,9 @@ class RenderSettings:
     spp: int = 1
     fovea_spp: int = 1
     sample_seed: int = 0
+    shadow_maps: bool = False
+    shadow_map_size: int = DEFAULT_MAP_SIZE
+    indirect: bool = False
 
     def validate(self) -> None:
         """Raise ``RenderSettingsError`` for values that cannot be honoured (an
@@ -118,6 +130,10 @@ class RenderSettings:
             raise RenderSettingsError(f"primary path {self.primary!r} is not one of {', '.join(PRIMARY_PATHS)}")
         if self.tonemap not in TONEMAPS:
             raise RenderSettingsError(f"tone mapping {self.tonemap!r} is not one of {', '.join(TONEMAPS)}")
+        if not MIN_MAP_SIZE <= self.shadow_map_size <= MAX_MAP_SIZE:
+            raise RenderSettingsError(
+                f"shadow map size must be in {MIN_MAP_SIZE}..{MAX_MAP_SIZE} texels per face, got {self.shadow_map_size}"
+            )
         if self.threads is not None and self.threads < 1:
             raise RenderSettingsError(f"threads must be >= 1, got {self.threads}")
         for name, what, mode in (
@@ -212,10 +228,15 @@ class Renderer:
         if isinstance(scene, DeviceScene):
             if scene.device != self.device:
                 raise RenderSettingsError(f"the device scene is on {scene.device.alias}, not {self.device.alias}")
+            if scene.indirect != self.settings.indirect:
+                raise RenderSettingsError(
+                    f"the device scene was built with indirect={scene.indirect}, "
+                    f"but the settings ask for indirect={self.settings.indirect}"
+                )
             self.device_scene = scene
         else:
             timer = self.new_timer()
-            self.device_scene = DeviceScene(scene, self.device, timer)
+            self.device_scene = DeviceScene(scene, self.device, timer, indirect=self.settings.indirect)
             self.setup_ms = dict(timer.stages_ms)
         self.launcher = Launcher(self.device, self.settings.threads)
         self.passes = self._make_passes()
@@ -231,12 +252,16 @@ class Renderer:
         check_memory(width, height, lights, threads, self.device, upload, s.spp, s.fovea_spp)
 
     def _make_passes(self) -> list[RenderPass]:
-        """The mode's passes, in frame order."""
+        """The mode's passes, in frame order (the shadow maps first, where the raster
+        layer is shaded and they are on)."""
         s = self.settings
         primary_cls = Rasterizer if s.primary == "raster" else RayCaster
         passes: list[RenderPass] = [primary_cls(self.launcher)]
+        maps = ShadowMaps(self.launcher, s.shadow_map_size) if s.shadow_maps and s.mode != "full" else None
+        if maps is not None:
+            passes.insert(0, maps)
         if s.mode == "raster":
-            passes.append(DeferredLighting(self.launcher))
+            passes.append(DeferredLighting(self.launcher, maps))
         else:
             focus = FocusRegionBuilder(self.launcher, s.width, s.height)
             tracer = Tracer(self.launcher, TraceSettings(max_depth=s.max_depth, shadow_samples=s.shadow_samples))
@@ -244,7 +269,7 @@ class Renderer:
             if s.mode == "full":
                 passes.append(tracer)
             else:
-                lighting = DeferredLighting(self.launcher)
+                lighting = DeferredLighting(self.launcher, maps)
                 if s.fovea_spp > 1:
                     trace: RenderPass = FoveaSampler(tracer, s.fovea_spp, s.sample_seed)
                 else:

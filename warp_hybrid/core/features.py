@@ -4,7 +4,9 @@
 kernel code (``trace/variant.py`` derives its compile-time flags from these fields and
 nothing else); the others only inform (``warp-hybrid info``).  ``analyse_features``
 reads them off a host scene, counting only the materials some triangle uses, so an
-unused glass material in a library never turns refraction on.
+unused glass material in a library never turns refraction on.  ``indirect`` (the
+lights' interreflection estimate, ``lighting/indirect.py``) is a rendering choice, not
+a property of the scene: a ``DeviceScene`` built with the estimate on sets it.
 """
 
 from __future__ import annotations
@@ -33,6 +35,7 @@ class SceneFeatures:
     environment: bool = _effect(traced=True)
     emission: bool = _effect(traced=True)
     cutouts: bool = _effect(traced=True)
+    indirect: bool = _effect(traced=True)
     textures: bool = _effect(traced=False)
 
     @classmethod

@@ -123,7 +123,9 @@ class AmbientGPU:
     the top row; ``base_width`` is the width of level 0 (the dome texture).
     ``brdf_lut``: (roughness, n.v) -> (A, B) of ``specular_albedo_table``.
     ``sh_bands``: 1 when only the constant band is non-zero (a constant dome; the
-    others are then skipped, which changes no bit of the sum), else 3."""
+    others are then skipped, which changes no bit of the sum), else 3.
+    ``indirect``: the estimated irradiance of the lights' interreflected light
+    (``lighting/indirect.py``), added to the dome's; zero when the estimate is off."""
 
     enabled: int
     brdf_lut: wp.array2d(dtype=wp.vec2)
@@ -135,3 +137,4 @@ class AmbientGPU:
     mip_height: wp.array(dtype=wp.int32)
     levels: int
     base_width: int
+    indirect: wp.vec3

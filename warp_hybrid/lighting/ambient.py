@@ -1,7 +1,8 @@
 """Ambient light from the dome for raster shading (``@wp.func``): SH irradiance and the
 prefiltered mip chain of ``scene/device/dome.py``, weighted by its split-sum table.
 
-* Diffuse: ``kd / pi * E(n)`` with ``E`` the dome's SH irradiance, weighted by
+* Diffuse: ``kd / pi * E(n)`` with ``E`` the dome's SH irradiance (plus the lights'
+  indirect estimate of ``lighting/indirect.py`` where it is on), weighted by
   ``1 - F(n.v)``, the diffuse lobe's own directional albedo.
 * Specular (glossy reflection of the dome): the GGX lobe of roughness r
   (alpha = r^2) reads level ``log2(alpha * W0 / 2 pi)`` of the radiance mips (the
@@ -120,12 +121,16 @@ def env_brdf(amb: AmbientGPU, f0: wp.vec3, roughness: float, n_dot_v: float) -> 
 
 @wp.func(inline=True)
 def ambient_diffuse(scene: SceneGPU, amb: AmbientGPU, n: wp.vec3, v: wp.vec3, kd: wp.vec3, f0: wp.vec3) -> wp.vec3:
-    """Diffuse light from the dome: ``kd / pi * E(n) * (1 - F(n.v))`` (the diffuse
-    lobe of ``brdf.brdf_diffuse`` integrated against the dome's irradiance)."""
-    if amb.enabled == 0:
+    """Diffuse ambient light: ``kd / pi * E(n) * (1 - F(n.v))`` (the diffuse lobe of
+    ``brdf.brdf_diffuse`` integrated against uniform light) with ``E`` the dome's
+    irradiance plus the indirect estimate ``amb.indirect`` (zero when off)."""
+    e = amb.indirect
+    if amb.enabled != 0:
+        e = dome_irradiance(scene, amb, n) + e
+    if wp.max(wp.max(e[0], e[1]), e[2]) <= 0.0:
         return wp.vec3(0.0, 0.0, 0.0)
     keep = diffuse_view_weight(f0, wp.clamp(wp.dot(n, v), 0.0, 1.0))
-    return wp.cw_mul(wp.cw_mul(kd * INV_PI, dome_irradiance(scene, amb, n)), keep)
+    return wp.cw_mul(wp.cw_mul(kd * INV_PI, e), keep)
 
 
 @wp.func(inline=True)

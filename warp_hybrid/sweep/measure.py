@@ -72,7 +72,7 @@ class SceneSweep:
         self.repeats = repeats
         self.reference_spp = reference_spp
         self.viewing = viewing or ViewingSetup()
-        self.device_scene = DeviceScene(scene, base.device)
+        self.device_scene = DeviceScene(scene, base.device, indirect=base.indirect)
         self.fovea = layout_mask(FocusWindow(gaze, fovea_fraction, base.window_shape).layout(base.width, base.height))
         self.exposure_ev: float | None = None
         self._reference: tuple[np.ndarray, np.ndarray] | None = None

@@ -7,7 +7,8 @@ kernel left (``shadows.py``), then an iterative path of reflection and refractio
 (no recursion) whose hits are shaded the same way, with their own shadow rays.
 
 Shading of a hit (primary or secondary) at depth d < max_depth (``shade_hit``):
-emission + sum of T_i x direct_light + dome SH diffuse, plus
+emission + sum of T_i x direct_light + the diffuse ambient (dome SH, and the lights'
+indirect estimate where it is on: ``lighting/ambient.ambient_diffuse``), plus
 
 * a reflection ray (``optics.mirror_direction``) when the material is smooth
   (roughness < ``SMOOTH_ROUGHNESS``, the rule the feature analysis uses too) and
@@ -145,6 +146,7 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
     reflections = variant.reflections
     transparency = variant.transparency
     environment = variant.environment
+    ambient = variant.ambient
     cutouts = variant.cutouts
     secondary = variant.secondary
 
@@ -221,7 +223,7 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
                 direct += wp.cw_mul(c, tr)
         if not traced:
             c = h.emission + direct
-            if wp.static(environment):
+            if wp.static(ambient):
                 c = shade_surface(
                     scene,
                     amb,
@@ -240,7 +242,7 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
             out.radiance = wp.cw_mul(weight, c)
             return out
         c = h.emission + direct
-        if wp.static(environment):
+        if wp.static(ambient):
             c += ambient_diffuse(scene, amb, n, v, kd, h.specular)
         # children: a = reflection, b = transmission
         a_w = zero

@@ -60,6 +60,11 @@ class TraceVariant:
         return self.features.environment
 
     @property
+    def ambient(self) -> bool:
+        """Diffuse ambient light at hits: the dome's, or the lights' indirect estimate."""
+        return self.features.environment or self.features.indirect
+
+    @property
     def cutouts(self) -> bool:
         """Alpha-tested surfaces that rays step through."""
         return self.features.cutouts

@@ -147,4 +147,5 @@ def build_ambient(scene: Scene, device: wp.context.Device) -> AmbientGPU:
     g.mip_height = wp.array(np.asarray([m.shape[0] for m in mips] or [1], np.int32), dtype=wp.int32, device=device)
     g.levels = len(mips)
     g.base_width = int(image.shape[1]) if image is not None else 1
+    g.indirect = wp.vec3(0.0, 0.0, 0.0)  # DeviceScene sets it where the estimate is on
     return g

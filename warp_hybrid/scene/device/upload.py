@@ -13,12 +13,13 @@ rebuild theirs.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
 import warp as wp
 
-from ...core.features import analyse_features
+from ...core.features import SceneFeatures, analyse_features
 from ...core.scene_gpu import (
     FLAG_CUTOUT,
     FLAG_REFRACTIVE,
@@ -35,6 +36,7 @@ from ...core.scene_gpu import (
     TextureGPU,
 )
 from ...errors import SceneError
+from ...lighting.indirect import indirect_irradiance
 from ...timing import StageTimer
 from ..model import Light, Material, Scene
 from .dome import build_ambient, dome_source, same_dome
@@ -197,16 +199,25 @@ def _corner_colors(scene: Scene) -> np.ndarray:
 class DeviceScene:
     """A ``Scene`` uploaded to one Warp device, with its BVH and dome data."""
 
-    def __init__(self, scene: Scene, device: wp.context.Device | str = "cpu", timer: StageTimer | None = None) -> None:
+    def __init__(
+        self,
+        scene: Scene,
+        device: wp.context.Device | str = "cpu",
+        timer: StageTimer | None = None,
+        indirect: bool = False,
+    ) -> None:
         """Upload ``scene`` to ``device`` and build the BVH (once); ``timer`` gets the
-        stages "upload" and "bvh_build"."""
+        stages "upload" and "bvh_build".  ``indirect``: add the lights' interreflection
+        estimate (``lighting/indirect.py``) to the diffuse ambient of every pass."""
         timer = timer or StageTimer()
         self.device = wp.get_device(device)
         self.geometry_version = 0
         self.materials_version = 0
+        self.indirect = bool(indirect)
         with timer.stage("upload"):
             self.scene = scene
-            self.features = analyse_features(scene)
+            self._indirect_e = self._indirect_estimate(scene)
+            self.features = self._features(scene)
             d = self.device
             self.points = wp.array(_f32(scene.points, 3), dtype=wp.vec3, device=d)
             self.indices = wp.array(np.ascontiguousarray(scene.indices.reshape(-1), np.int32), dtype=wp.int32, device=d)
@@ -241,6 +252,22 @@ class DeviceScene:
     def _upload_dome(self, scene: Scene) -> None:
         self.ambient: AmbientGPU = build_ambient(scene, self.device)
         self._dome_source = dome_source(scene)
+        self.ambient.indirect = wp.vec3(*self._indirect_e)
+
+    def _indirect_estimate(self, scene: Scene) -> tuple[float, float, float]:
+        """The lights' indirect irradiance (``lighting/indirect.py``) where the estimate
+        is on, else zero."""
+        if not self.indirect:
+            return (0.0, 0.0, 0.0)
+        e = indirect_irradiance(scene)
+        return (float(e[0]), float(e[1]), float(e[2]))
+
+    def _features(self, scene: Scene) -> SceneFeatures:
+        """The scene's effects, ``indirect`` among them where the estimate gives light."""
+        features = analyse_features(scene)
+        if max(self._indirect_e) > 0.0:
+            features = dataclasses.replace(features, indirect=True)
+        return features
 
     def _make_struct(self) -> SceneGPU:
         s = SceneGPU()
@@ -286,7 +313,8 @@ class DeviceScene:
         if scene.corner_colors is not old.corner_colors and not np.array_equal(scene.corner_colors, old.corner_colors):
             self.corner_colors = wp.array(_corner_colors(scene), dtype=wp.vec3, device=self.device)
         self.scene = scene
-        if scene.lights != old.lights:
+        lights_changed = scene.lights != old.lights
+        if lights_changed:
             self._upload_lights(scene)
         materials_changed = scene.materials is not old.materials and scene.materials != old.materials
         if materials_changed:
@@ -295,12 +323,19 @@ class DeviceScene:
             self._upload_textures(scene)
         if not same_dome(dome_source(scene), self._dome_source):
             self._upload_dome(scene)
+        # The indirect estimate follows the lights and the materials; points that only move
+        # leave it as it was (an animation barely changes the surface area).
+        if self.indirect and (lights_changed or materials_changed):
+            self._indirect_e = self._indirect_estimate(scene)
+            self.ambient.indirect = wp.vec3(*self._indirect_e)
         # The features follow the used materials (the triangles' are unchanged), whether
-        # there are lights and whether there is a dome: re-analysed only when those change.
+        # there are lights, whether there is a dome and the estimate: re-analysed only
+        # when those change.
         if (
             materials_changed
             or bool(scene.lights) != bool(old.lights)
             or (scene.environment is None) != (old.environment is None)
+            or (self.indirect and lights_changed)
         ):
-            self.features = analyse_features(scene)
+            self.features = self._features(scene)
         self.gpu = self._make_struct()

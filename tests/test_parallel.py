@@ -95,7 +95,7 @@ def test_a_free_thread_takes_the_bands_a_busy_one_cannot() -> None:
                 others_done.set()
 
     with Launcher("cpu", 2) as launcher:
-        launcher._share(launch_band, bands)
+        launcher.share(launch_band, bands)
     assert sorted(k for k, _ in ran) == list(range(bands))
     assert sum(1 for _, slot in ran if slot == 0) <= 1
 

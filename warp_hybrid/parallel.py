@@ -131,14 +131,14 @@ class Launcher:
             return
         self.ensure_loaded(kernel)
         if self.device.is_cuda:
-            self._launch(kernel, 0, (height, width), [*inputs, 0, 1, 1])
+            self.launch(kernel, 0, (height, width), [*inputs, 0, 1, 1])
             return
 
         def launch_band(k: int, bands: int, slot: int) -> None:
             row0, rows = band(k, bands, height)
-            self._launch(kernel, slot, (rows, 1), [*inputs, row0, 1, width], first=k == 0)
+            self.launch(kernel, slot, (rows, 1), [*inputs, row0, 1, width], first=k == 0)
 
-        self._share(launch_band, band_count(height, self.threads, MIN_BAND_ROWS))
+        self.share(launch_band, band_count(height, self.threads, MIN_BAND_ROWS))
 
     def launch_items(self, kernel: wp.Kernel, count: int, inputs: Sequence[Any]) -> None:
         """Launch a 1-D kernel over ``count`` items split across threads.
@@ -150,14 +150,14 @@ class Launcher:
             return
         self.ensure_loaded(kernel)
         if self.device.is_cuda:
-            self._launch(kernel, 0, count, [*inputs, 0, 1])
+            self.launch(kernel, 0, count, [*inputs, 0, 1])
             return
 
         def launch_band(k: int, bands: int, slot: int) -> None:
             start, items = band(k, bands, count)
-            self._launch(kernel, slot, items, [*inputs, start, 1], first=k == 0)
+            self.launch(kernel, slot, items, [*inputs, start, 1], first=k == 0)
 
-        self._share(launch_band, band_count(count, self.threads, MIN_BAND_ITEMS))
+        self.share(launch_band, band_count(count, self.threads, MIN_BAND_ITEMS))
 
     def launch_slots(self, kernel: wp.Kernel, count: int, inputs: Sequence[Any]) -> None:
         """Launch a 1-D kernel that accumulates per thread: the last three inputs must be
@@ -172,14 +172,15 @@ class Launcher:
 
         def piece(k: int, n: int) -> None:
             start, items = band(k, n, count)
-            self._launch(kernel, k, items, [*inputs, k, start, 1])
+            self.launch(kernel, k, items, [*inputs, k, start, 1])
 
         self._map(piece, pieces)
 
-    def _share(self, launch_band: Callable[[int, int, int], None], bands: int) -> None:
-        """Run ``launch_band(k, bands, slot)`` for every band k, each thread (``slot``)
-        taking the next band left until none is (``next`` on a shared counter is atomic
-        under the GIL)."""
+    def share(self, launch_band: Callable[[int, int, int], None], bands: int) -> None:
+        """Run ``launch_band(k, bands, slot)`` for every band k, each thread (``slot``,
+        0 .. threads - 1) taking the next band left until none is (``next`` on a shared
+        counter is atomic under the GIL); a pass that accumulates per thread writes to
+        its ``slot``."""
         taken = itertools.count()
 
         def worker(slot: int, _workers: int) -> None:
@@ -190,9 +191,9 @@ class Launcher:
 
         self._map(worker, min(self.threads, bands))
 
-    def _launch(self, kernel: wp.Kernel, slot: int, dim: Any, inputs: list[Any], first: bool = True) -> None:
-        """One ``wp.launch`` (a band of a pass, on thread ``slot``; ``first``: the pass's
-        first band), timed by kernel when profiling."""
+    def launch(self, kernel: wp.Kernel, slot: int, dim: Any, inputs: list[Any], first: bool = True) -> None:
+        """One ``wp.launch`` on this thread (a band of a pass, on thread ``slot``;
+        ``first``: the pass's first band), timed by kernel when profiling."""
         profile = self.profile
         if profile is None:
             wp.launch(kernel, dim=dim, inputs=inputs, device=self.device)

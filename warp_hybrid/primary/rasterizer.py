@@ -25,7 +25,7 @@ import warp as wp
 
 from ..core.camera import CameraGPU
 from ..core.gbuffer import GBuffer
-from ..parallel import Launcher
+from ..parallel import Launcher, band, band_count
 from ..scene.device import DeviceScene
 from ..timing import StageTimer
 from . import kernels
@@ -34,6 +34,8 @@ from .clipping import ProjectedPoints
 from .coverage import EMPTY_KEY, MODE_COUNT, MODE_DEPTH, RasterTarget
 
 _EMPTY_KEY = int(EMPTY_KEY.value)
+# The fewest clusters a band of the coverage pass holds.
+MIN_BAND_CLUSTERS = 16
 
 
 class Rasterizer(PrimaryVisibility):
@@ -80,30 +82,33 @@ class Rasterizer(PrimaryVisibility):
         return self._bounds
 
     def _rasterize(self, scene: DeviceScene, camera: CameraGPU, keys: wp.array, mode: int, clear: int) -> None:
-        """Transform the points, then run the coverage kernel, each thread on every
-        n-th cluster into its slice."""
+        """Transform the points, clear each thread's slice, then run the coverage kernel
+        over bands of clusters, each thread into its own slice (``Launcher.share``)."""
         launcher = self.launcher
         launcher.ensure_loaded(kernels.coverage_kernel)
         count = scene.scene.triangle_count
         pts = self._transform_points(scene, camera)
-        bounds = self._cluster_bounds(scene) if count > 0 else None
 
-        def piece(k: int, n: int) -> None:
+        def clear_slice(k: int, _n: int) -> None:
             keys[k].fill_(clear)
-            clusters = 0 if bounds is None else (bounds.shape[0] - k + n - 1) // n
-            if clusters > 0:
-                target = RasterTarget()
-                target.keys = keys
-                target.slot = k
-                target.mode = mode
-                wp.launch(
-                    kernels.coverage_kernel,
-                    dim=clusters,
-                    inputs=[scene.gpu, camera, pts, target, bounds, count, k, n],
-                    device=launcher.device,
-                )
 
-        launcher.run(piece, keys.shape[0])
+        launcher.run(clear_slice, keys.shape[0])
+        if count == 0:
+            return
+        bounds = self._cluster_bounds(scene)
+        clusters = bounds.shape[0]
+
+        def cover_band(k: int, bands: int, slot: int) -> None:
+            first, size = band(k, bands, clusters)
+            target = RasterTarget()
+            target.keys = keys
+            target.slot = slot
+            target.mode = mode
+            launcher.launch(
+                kernels.coverage_kernel, slot, size, [scene.gpu, camera, pts, target, bounds, count, first, 1], k == 0
+            )
+
+        launcher.share(cover_band, band_count(clusters, keys.shape[0], MIN_BAND_CLUSTERS))
 
     def find_hits(self, scene: DeviceScene, camera: CameraGPU, gbuffer: GBuffer, timer: StageTimer) -> None:
         """Rasterize ``scene`` seen by ``camera`` and resolve each pixel's hit record."""

@@ -63,3 +63,14 @@ def test_frame_estimate_covers_the_frame_buffers(mode: str, threads: int, spp: i
         64, 48, lights, threads, spp, fovea_spp
     )
     assert grown <= estimated <= 1.5 * grown, (grown / (128 * 96 - 64 * 48), estimated / (128 * 96 - 64 * 48))
+
+
+def test_shadow_maps_are_in_the_estimate() -> None:
+    """The maps add every face of every light (a cube map each at most), the target a
+    face is drawn into with one key slice per thread, and the projected points; off,
+    nothing."""
+    from warp_hybrid.memory import shadow_map_bytes
+
+    assert shadow_map_bytes(0, 3, 2, 1000) == 0
+    n = 512
+    assert shadow_map_bytes(n, 2, 2, 1000) == 2 * 6 * 4 * n * n + (12 + 2 * 8) * n * n + 24 * 1000

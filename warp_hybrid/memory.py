@@ -8,7 +8,8 @@ slice per host thread, the passes' own per-pixel lists (focus list and weights, 
 counts and transmittance, the post's luma and 8-bit images: ``PASS_BYTES_PER_PIXEL``
 plus ``PASS_BYTES_PER_PIXEL_LIGHT`` per light), a supersampled frame's sums, a
 supersampled window's own G-buffer and layers, and the host copies a frame returns.
-``scene_bytes`` is the device copy of the scene with its BVHs.  A test holds the
+``scene_bytes`` is the device copy of the scene with its BVHs; ``shadow_map_bytes``
+the shadow maps where they are on (``lighting.shadow_maps``).  A test holds the
 estimate against the arrays a renderer really holds (never below, at most 1.5x).
 
 ``check_memory`` refuses, with the estimate in the message, a renderer whose estimate
@@ -42,6 +43,13 @@ HOST_BYTES_PER_PIXEL = 3 + 12 + 64
 BVH_BYTES_PER_TRIANGLE = 128
 #: Texel mip chains add a third to every image (float4 texels).
 MIP_FACTOR = 4.0 / 3.0
+#: Shadow maps: faces per light at most (a cube map), float32 depth per texel, the hit
+#: record target a face is drawn into (per texel) and the map rasterizer's projected
+#: points (per scene point).
+SHADOW_FACES = 6
+SHADOW_TEXEL_BYTES = 4
+SHADOW_SCRATCH_BYTES = 12
+PROJECTED_POINT_BYTES = 24
 
 
 def gbuffer_bytes_per_pixel() -> int:
@@ -74,6 +82,17 @@ def frame_bytes(width: int, height: int, lights: int, threads: int, spp: int = 1
     if fovea_spp > 1:
         per_pixel += gbuffer + layers  # the window's own G-buffer and layers
     return per_pixel * width * height
+
+
+def shadow_map_bytes(size: int, lights: int, threads: int, points: int) -> int:
+    """Device bytes of the shadow maps of ``lights`` lights, ``size`` texels a side
+    (0: off): every face (at most ``SHADOW_FACES`` a light), the target a face is drawn
+    into with the rasterizer's key slice per thread, and the projected points."""
+    if size <= 0:
+        return 0
+    texels = size * size
+    faces = SHADOW_FACES * lights * SHADOW_TEXEL_BYTES * texels
+    return faces + (SHADOW_SCRATCH_BYTES + KEY_BYTES * threads) * texels + PROJECTED_POINT_BYTES * points
 
 
 def host_bytes(width: int, height: int, lights: int) -> int:
@@ -130,13 +149,17 @@ def check_memory(
     scene: Scene | None = None,
     spp: int = 1,
     fovea_spp: int = 1,
+    shadow_maps: int = 0,
+    points: int = 0,
 ) -> MemoryEstimate:
     """The estimate for a renderer of this size (with ``scene`` still to upload, or
-    None when it is on the device already); a ``RenderSettingsError`` stating it when it
+    None when it is on the device already; ``shadow_maps``: the maps' size, 0 when off,
+    for a scene of ``points`` points); a ``RenderSettingsError`` stating it when it
     exceeds what ``device`` (and the host) has available now."""
     upload = scene_bytes(scene) if scene is not None else 0
+    maps = shadow_map_bytes(shadow_maps, lights, threads, points)
     estimate = MemoryEstimate(
-        device=frame_bytes(width, height, lights, threads, spp, fovea_spp) + upload,
+        device=frame_bytes(width, height, lights, threads, spp, fovea_spp) + maps + upload,
         host=host_bytes(width, height, lights),
         scene=upload,
     )

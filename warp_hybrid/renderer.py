@@ -224,7 +224,7 @@ class Renderer:
         self.setup_ms: dict[str, float] = {}
         host_scene = scene.scene if isinstance(scene, DeviceScene) else scene
         upload = scene if isinstance(scene, Scene) else None
-        self._check_memory(self.settings.width, self.settings.height, len(host_scene.lights), upload)
+        self._check_memory(self.settings.width, self.settings.height, host_scene, upload)
         if isinstance(scene, DeviceScene):
             if scene.device != self.device:
                 raise RenderSettingsError(f"the device scene is on {scene.device.alias}, not {self.device.alias}")
@@ -244,12 +244,15 @@ class Renderer:
         self._accumulator = SampleAccumulator(self.launcher)
         self._set_scene()
 
-    def _check_memory(self, width: int, height: int, lights: int, upload: Scene | None) -> None:
+    def _check_memory(self, width: int, height: int, scene: Scene, upload: Scene | None) -> None:
         """Refuse, before allocating, a size whose memory estimate does not fit the
-        device (``memory.check_memory``; ``upload``: the scene still to upload)."""
+        device (``memory.check_memory``; ``scene``: the one to draw, ``upload``: the
+        scene still to upload, or None)."""
         s = self.settings
         threads = s.threads if s.threads is not None else default_thread_count(self.device)
-        check_memory(width, height, lights, threads, self.device, upload, s.spp, s.fovea_spp)
+        maps = s.shadow_map_size if s.shadow_maps and s.mode != "full" else 0
+        lights = len(scene.lights)
+        check_memory(width, height, lights, threads, self.device, upload, s.spp, s.fovea_spp, maps, len(scene.points))
 
     def _make_passes(self) -> list[RenderPass]:
         """The mode's passes, in frame order (the shadow maps first, where the raster
@@ -331,7 +334,7 @@ class Renderer:
         self.settings.width, self.settings.height = width, height
         try:
             self.settings.validate()
-            self._check_memory(width, height, len(self.scene.lights), None)
+            self._check_memory(width, height, self.scene, None)
         except RenderSettingsError:  # refused: the renderer keeps its size
             self.settings.width, self.settings.height = before
             raise

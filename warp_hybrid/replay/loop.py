@@ -40,11 +40,11 @@ TRACE_STAGES = ("trace_setup", "trace_shadow", "trace_secondary")
 #: "relight" no longer runs (the raster layer is shaded everywhere); it stays in the
 #: stats CSV's columns (always 0) so the file keeps its format.
 AFTER_TRACE_STAGES = ("relight", "accumulate", "compose", "tonemap", "aa", "readback", "adapt")
-#: Every stage a frame can report, in frame order (the stats CSV's stage columns).
+#: Every stage a frame can report (the stats CSV's stage columns): in frame order, then
+#: the stages added later, appended so the existing columns keep their places.
 FRAME_STAGES = (
     "scene_update",
     "refit",
-    "shadow_maps",
     "clear",
     "raster",
     "resolve",
@@ -54,6 +54,7 @@ FRAME_STAGES = (
     "lighting",
     *TRACE_STAGES,
     *AFTER_TRACE_STAGES,
+    "shadow_maps",
 )
 
 

@@ -21,7 +21,21 @@ LUMA_709 = (0.2126, 0.7152, 0.0722)
 #: keep the prefiltered dome term.  One rule for both the feature analysis (which
 #: decides whether reflection code is compiled) and the tracer kernels (which decide
 #: per hit), so the two can never disagree.
-SMOOTH_ROUGHNESS = wp.constant(0.35)
+SMOOTH_ROUGHNESS = wp.constant(0.45)
+#: From this roughness up to ``SMOOTH_ROUGHNESS`` the mirror ray fades out
+#: (``mirror_share``) and the prefiltered dome term fades in, so a roughness texture
+#: across the cut does not speckle between mirror and matte.
+GLOSSY_ROUGHNESS = wp.constant(0.25)
+
+
+@wp.func
+def mirror_share(roughness: float) -> float:
+    """The share of a surface's specular reflection its traced mirror ray carries:
+    1 up to ``GLOSSY_ROUGHNESS``, 0 from ``SMOOTH_ROUGHNESS`` on, a smoothstep between
+    (the prefiltered dome term carries the rest)."""
+    t = wp.clamp((roughness - GLOSSY_ROUGHNESS) / (SMOOTH_ROUGHNESS - GLOSSY_ROUGHNESS), 0.0, 1.0)
+    return 1.0 - t * t * (3.0 - 2.0 * t)
+
 
 #: Smallest GGX alpha (= roughness^2): a perfectly smooth surface still has a lobe.
 ALPHA_MIN = wp.constant(1.0e-3)

@@ -13,8 +13,10 @@ indirect estimate where it is on: ``lighting/ambient.ambient_diffuse``), plus
 * a reflection ray (``optics.mirror_direction``) when the material is smooth
   (roughness < ``SMOOTH_ROUGHNESS``, the rule the feature analysis uses too) and
   reflective, weighted by the split-sum ``env_brdf`` for opaque materials and by the
-  exact Fresnel F for transmissive ones; rougher surfaces keep the raster prefiltered
-  dome term;
+  exact Fresnel F for transmissive ones, times ``mirror_share``: 1 up to
+  ``GLOSSY_ROUGHNESS``, fading to 0 at ``SMOOTH_ROUGHNESS`` while the prefiltered dome
+  term takes the rest (no speckle where a roughness texture crosses the cut); rougher
+  surfaces keep the prefiltered dome term alone; total internal reflection is whole;
 * for transmissive materials a transmission ray (``optics``).
 
 At d = max_depth the hit gets the raster shading (prefiltered dome reflection, the
@@ -37,7 +39,7 @@ import functools
 import warp as wp
 
 from ..core.camera import pixel_ray_direction
-from ..core.constants import INV_PI, SMOOTH_ROUGHNESS
+from ..core.constants import INV_PI, SMOOTH_ROUGHNESS, mirror_share
 from ..core.gbuffer import GBufferArrays
 from ..core.pixel_list import listed_pixel
 from ..core.scene_gpu import FLAG_TRANSMISSIVE, AmbientGPU, SceneGPU
@@ -249,13 +251,20 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
         a_d = zero
         b_w = zero
         b_d = zero
+        share = mirror_share(h.roughness)
         smooth = h.roughness < SMOOTH_ROUGHNESS
         if wp.static(secondary):
             if transmissive:
                 tm = transmission(h, d)
-                if smooth or tm.valid == 0:
+                if tm.valid == 0:  # total internal reflection: all of it, whatever the roughness
                     a_w = wp.vec3(tm.fresnel, tm.fresnel, tm.fresnel)
                     a_d = mirror_direction(d, n, ng)
+                elif smooth:
+                    a_w = wp.vec3(tm.fresnel, tm.fresnel, tm.fresnel) * share
+                    a_d = mirror_direction(d, n, ng)
+                    if wp.static(environment):
+                        if share < 1.0:
+                            c += ambient_specular(scene, amb, n, v, h.specular, h.roughness) * (1.0 - share)
                 elif wp.static(environment):
                     c += ambient_specular(scene, amb, n, v, h.specular, h.roughness)
                 if tm.valid != 0:
@@ -264,11 +273,13 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
             else:
                 if wp.static(reflections):
                     if smooth:
-                        a_w = env_brdf(amb, h.specular, h.roughness, wp.dot(n, v))
+                        a_w = env_brdf(amb, h.specular, h.roughness, wp.dot(n, v)) * share
                         a_d = mirror_direction(d, n, ng)
-                if max3(a_w) <= 0.0:
-                    if wp.static(environment):
+                if wp.static(environment):
+                    if max3(a_w) <= 0.0:
                         c += ambient_specular(scene, amb, n, v, h.specular, h.roughness)
+                    elif share < 1.0:
+                        c += ambient_specular(scene, amb, n, v, h.specular, h.roughness) * (1.0 - share)
         elif wp.static(environment):
             c += ambient_specular(scene, amb, n, v, h.specular, h.roughness)
         out.radiance = wp.cw_mul(weight, c)

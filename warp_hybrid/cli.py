@@ -565,6 +565,12 @@ def _add_bench_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--threads", type=int, default=defaults.threads, help="host threads per pass")
     p.add_argument("--shadow-samples", type=int, default=defaults.shadow_samples, help="shadow samples per light")
     p.add_argument("--max-depth", type=int, default=defaults.max_depth, help="secondary bounces per pixel")
+    p.add_argument(
+        "--shadow-maps", action="store_true", help="shadow the raster layer with shadow maps in every configuration"
+    )
+    p.add_argument(
+        "--indirect", action="store_true", help="the lights' indirect estimate in every configuration and the reference"
+    )
 
 
 def _cmd_bench(args: argparse.Namespace) -> int:
@@ -592,6 +598,8 @@ def _cmd_bench(args: argparse.Namespace) -> int:
         shadow_samples=args.shadow_samples,
         max_depth=args.max_depth,
         exposure_ev=args.exposure,
+        shadow_maps=args.shadow_maps,
+        indirect=args.indirect,
     )
     base.validate()
     from .output import check_outputs

@@ -66,3 +66,19 @@ def test_bench_writes_results_table_and_plot(tmp_path: Path) -> None:
     assert "### cornell_glass" in (tmp_path / "results.md").read_text()
     plot = cv2.imread(str(tmp_path / "cornell_glass.png"))
     assert plot is not None and plot.shape[0] > 200 and plot.std() > 5
+
+
+def test_bench_with_shadow_maps_shadows_the_periphery(tmp_path: Path) -> None:
+    """``bench --shadow-maps --indirect``: every row and the reference take the switches;
+    the raster rows get shadows like the traced reference, so the raster frame comes
+    closer to it than without them."""
+    scene = ROOT / "scenes" / "cornell_glass.usda"
+    flips = {}
+    for flag in ([], ["--shadow-maps", "--indirect"]):
+        out = tmp_path / ("with" if flag else "without")
+        args = ["bench", str(scene), "--gaze", "0.6,0.55", "--out", str(out), "--size", "48x36", "--repeats", "1"]
+        args += ["--fractions", "0.1", "--lowres", "0.5", "--reference-spp", "2", "--threads", "1", "--exposure", "0"]
+        assert main(args + flag) == 0
+        with open(out / "results.csv") as f:
+            flips[bool(flag)] = {r["label"]: float(r["flip_mean"]) for r in csv.DictReader(f)}
+    assert flips[True]["raster"] < flips[False]["raster"]

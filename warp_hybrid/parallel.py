@@ -161,20 +161,23 @@ class Launcher:
 
     def launch_slots(self, kernel: wp.Kernel, count: int, inputs: Sequence[Any]) -> None:
         """Launch a 1-D kernel that accumulates per thread: the last three inputs must be
-        ``slot: int, start: int, step: int``; each host thread (``slot`` 0, 1, ...) takes
-        one contiguous band of items, ``start + tid * step``, so no two threads ever add
-        to the same slot (Warp's CPU atomics are plain read-modify-writes).  On CUDA one
-        launch (slot 0) covers every item and the adds are atomic."""
+        ``slot: int, start: int, step: int``.  On the CPU the items go out in bands like
+        ``launch_items``'s, and each band adds into the ``slot`` of the thread that runs
+        it (0 .. threads - 1), so no two threads ever add to the same slot (Warp's CPU
+        atomics are plain read-modify-writes).  On CUDA one launch (slot 0) covers every
+        item and the adds are atomic."""
         if count <= 0:
             return
         self.ensure_loaded(kernel)
-        pieces = 1 if self.device.is_cuda else min(self.threads, count)
+        if self.device.is_cuda:
+            self.launch(kernel, 0, count, [*inputs, 0, 0, 1])
+            return
 
-        def piece(k: int, n: int) -> None:
-            start, items = band(k, n, count)
-            self.launch(kernel, k, items, [*inputs, k, start, 1])
+        def launch_band(k: int, bands: int, slot: int) -> None:
+            start, items = band(k, bands, count)
+            self.launch(kernel, slot, items, [*inputs, slot, start, 1], first=k == 0)
 
-        self._map(piece, pieces)
+        self.share(launch_band, band_count(count, self.threads, MIN_BAND_ITEMS))
 
     def share(self, launch_band: Callable[[int, int, int], None], bands: int) -> None:
         """Run ``launch_band(k, bands, slot)`` for every band k, each thread (``slot``,

@@ -75,14 +75,12 @@ def _make_shade_kernel(shadowed: bool) -> wp.Kernel:
         kd = diffuse_albedo(scene, n, v, base, opt.opacity, opt.ior, flags)
         direct = wp.vec3(0.0, 0.0, 0.0)
         for i in range(scene.light_count):
+            c = direct_light(scene, i, p, n, v, kd, f0, opt.roughness)
             if wp.static(shadowed):
-                c = direct_light(scene, i, p, n, v, kd, f0, opt.roughness)
                 if c[0] > 0.0 or c[1] > 0.0 or c[2] > 0.0:
                     transmissive = (flags & FLAG_TRANSMISSIVE) != 0
                     c = c * shadow_visibility(scene, sm, i, p, gb.geometric_normal[y, x], transmissive)
-                direct += c
-            else:
-                direct += direct_light(scene, i, p, n, v, kd, f0, opt.roughness)
+            direct += c
         return shade_surface(
             scene, amb, n, v, base, kd, f0, opt.roughness, gb.emission[y, x], opt.opacity, opt.ior, flags, direct
         )

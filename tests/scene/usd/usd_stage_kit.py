@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade, Vt
 
+from warp_hybrid.lighting.indirect import triangle_areas  # noqa: F401  (re-exported for the USD tests)
 from warp_hybrid.scene.model import Scene
 from warp_hybrid.scene.usd.loader import load_scene
 
@@ -97,12 +98,6 @@ def triangle_normals(scene: Scene) -> np.ndarray:
     p = scene.points.astype(np.float64)[scene.indices]
     n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
     return n / np.linalg.norm(n, axis=1, keepdims=True)
-
-
-def triangle_areas(scene: Scene) -> np.ndarray:
-    """Areas (T,) of the scene's triangles."""
-    p = scene.points.astype(np.float64)[scene.indices]
-    return 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
 
 
 def set_st(mesh: UsdGeom.Mesh, uvs, interpolation: str = "vertex") -> None:

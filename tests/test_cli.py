@@ -177,7 +177,8 @@ def _stage_with_a_broken_mesh_and_a_subdivided_cube(tmp_path: Path) -> Path:
 def test_strict_and_subdivision_levels_reach_the_loader(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
     """``info``: a malformed mesh is skipped by default and refused with ``--strict``;
     ``--subdivision-levels`` sets how often the cube is refined (0: its 12-triangle
-    cage; each Catmull-Clark level quadruples the quads); a negative level is refused."""
+    cage; each Catmull-Clark level quadruples the quads; by default, auto, as often as
+    its size on the screen asks); a negative level or a word other than auto is refused."""
     path = _stage_with_a_broken_mesh_and_a_subdivided_cube(tmp_path)
     triangles = {}
     for levels in (0, 1, 2):
@@ -185,7 +186,13 @@ def test_strict_and_subdivision_levels_reach_the_loader(tmp_path: Path, capsys: 
         triangles[levels] = json.loads(capsys.readouterr().out)["triangles"]
     assert triangles == {0: 12, 1: 48, 2: 192}
     assert main(["info", str(path), "--json"]) == 0
-    assert json.loads(capsys.readouterr().out)["triangles"] == 48  # one level by default
+    auto = json.loads(capsys.readouterr().out)["triangles"]
+    # by default the level follows the screen: the framing camera fills a 640-pixel view with the cube
+    assert auto == 12 * 4**4
+    assert main(["info", str(path), "--json", "--subdivision-levels", "auto"]) == 0
+    assert json.loads(capsys.readouterr().out)["triangles"] == auto
+    assert main(["info", str(path), "--subdivision-levels", "some"]) == 2
+    assert "--subdivision-levels must be 0 or more, or auto, got some" in capsys.readouterr().err
     assert main(["info", str(path), "--strict"]) == 2
     assert "/World/Broken: faceVertexIndices holds 7" in capsys.readouterr().err
     assert main(["info", str(path), "--subdivision-levels", "-1"]) == 2

@@ -3,6 +3,7 @@ holds: never below them, at most 1.5 times them."""
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -43,15 +44,32 @@ def _array_bytes(root: object) -> dict[int, int]:
 
 
 @pytest.mark.parametrize(
-    "mode, threads, spp, fovea_spp",
-    [("raster", 1, 1, 1), ("hybrid", 2, 1, 1), ("full", 2, 1, 1), ("full", 1, 2, 1), ("hybrid", 1, 1, 2)],
+    "mode, threads, spp, fovea_spp, reuse, blended",
+    [
+        ("raster", 1, 1, 1, False, False),
+        ("hybrid", 2, 1, 1, False, False),
+        ("full", 2, 1, 1, False, False),
+        ("full", 1, 2, 1, False, False),
+        ("hybrid", 1, 1, 2, False, False),
+        ("hybrid", 1, 1, 1, True, False),
+        ("raster", 2, 1, 1, False, True),
+    ],
 )
-def test_frame_estimate_covers_the_frame_buffers(mode: str, threads: int, spp: int, fovea_spp: int) -> None:
-    """Per pixel: the growth of the arrays held from 64x48 to 128x96 against the estimate's."""
+def test_frame_estimate_covers_the_frame_buffers(
+    mode: str, threads: int, spp: int, fovea_spp: int, reuse: bool, blended: bool
+) -> None:
+    """Per pixel: the growth of the arrays held from 64x48 to 128x96 against the estimate's
+    (``reuse``: temporal reuse's history; ``blended``: the glass made alpha-blended, so the
+    layer behind it is drawn)."""
     scene = open_scene_source(CORNELL).scene_at(None)
+    if blended:
+        glass = [dataclasses.replace(m, alpha_blended=m.is_transmissive) for m in scene.materials]
+        scene = dataclasses.replace(scene, materials=glass)
     held = []
     for w, h in ((64, 48), (128, 96)):
-        settings = RenderSettings(width=w, height=h, mode=mode, threads=threads, spp=spp, fovea_spp=fovea_spp)
+        settings = RenderSettings(
+            width=w, height=h, mode=mode, threads=threads, spp=spp, fovea_spp=fovea_spp, reuse=reuse
+        )
         with Renderer(scene, settings) as renderer:
             renderer.render(scene.cameras[0])
             arrays = _array_bytes(renderer)
@@ -59,8 +77,9 @@ def test_frame_estimate_covers_the_frame_buffers(mode: str, threads: int, spp: i
             held.append(sum(n for ptr, n in arrays.items() if ptr not in on_scene))
     grown = held[1] - held[0]
     lights = len(scene.lights)
-    estimated = frame_bytes(128, 96, lights, threads, spp, fovea_spp) - frame_bytes(
-        64, 48, lights, threads, spp, fovea_spp
+    extra = (blended, reuse)
+    estimated = frame_bytes(128, 96, lights, threads, spp, fovea_spp, *extra) - frame_bytes(
+        64, 48, lights, threads, spp, fovea_spp, *extra
     )
     assert grown <= estimated <= 1.5 * grown, (grown / (128 * 96 - 64 * 48), estimated / (128 * 96 - 64 * 48))
 

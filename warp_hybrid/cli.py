@@ -110,22 +110,30 @@ def _add_scene_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--subdivision-levels",
-        type=int,
-        default=None,
-        metavar="N",
-        help="refinements of meshes that author a subdivision scheme (default 1; 0: their control cage)",
+        default="auto",
+        metavar="N|auto",
+        help="refinements of meshes that author a subdivision scheme (default auto: per mesh, down to edges of "
+        "about 4 pixels at the render size, 1 to 4 levels; 0: their control cage)",
     )
 
 
 def _open_scene(args: argparse.Namespace) -> UsdSceneSource:
     """The scene source ``_add_scene_arguments`` describes."""
     from .scene.open import open_scene_source
-    from .scene.usd.subdivision import DEFAULT_LEVELS
+    from .scene.usd.subdivision_level import AUTO, DEFAULT_SCREEN
 
-    levels = DEFAULT_LEVELS if args.subdivision_levels is None else args.subdivision_levels
-    if levels < 0:
-        raise RenderSettingsError(f"--subdivision-levels must be 0 or more, got {levels}")
-    return open_scene_source(args.scene, strict=args.strict, subdivision_levels=levels)
+    levels = args.subdivision_levels
+    if levels != AUTO:
+        try:
+            levels = int(levels)
+        except ValueError:
+            levels = -1
+        if levels < 0:
+            raise RenderSettingsError(
+                f"--subdivision-levels must be 0 or more, or {AUTO}, got {args.subdivision_levels}"
+            )
+    screen = tuple(args.size) if getattr(args, "size", None) else DEFAULT_SCREEN
+    return open_scene_source(args.scene, strict=args.strict, subdivision_levels=levels, screen=screen)
 
 
 def _add_frame_arguments(p: argparse.ArgumentParser, window_help: str, window_default: float | None) -> None:
@@ -191,6 +199,21 @@ def _add_frame_arguments(p: argparse.ArgumentParser, window_help: str, window_de
         default=defaults.indirect,
         help="add the lights' interreflected light (one estimate from their power) to both layers (default off)",
     )
+    _add_ring_arguments(p)
+    p.add_argument(
+        "--probes",
+        action="store_true",
+        default=defaults.probes,
+        help="the raster layer's mirrors and metals reflect a probe of the scene captured by the rasterizer "
+        "(default off: the dome only, black without one)",
+    )
+    p.add_argument(
+        "--reuse",
+        action="store_true",
+        default=defaults.reuse,
+        help="--mode hybrid: where the window no longer traces, show the last frames' traced values reprojected "
+        "through the G-buffer, fading over a few frames (default off)",
+    )
     p.add_argument(
         "--exposure", type=parse_exposure, default=defaults.exposure_ev, help="'auto' (default) or stops (EV)"
     )
@@ -207,6 +230,32 @@ def _add_frame_arguments(p: argparse.ArgumentParser, window_help: str, window_de
         "pixel (box filter), a converged reference at 16; 1 (default) samples the pixel centres",
     )
     _add_fovea_spp_argument(p)
+
+
+def _add_ring_arguments(p: argparse.ArgumentParser) -> None:
+    """``--ring`` and its sizing: the mid-resolution ring around the focus window."""
+    defaults = RenderSettings()
+    p.add_argument(
+        "--ring",
+        action="store_true",
+        default=defaults.ring,
+        help="--mode hybrid: trace a ring around the window at every --ring-step-th pixel, upsampled with the "
+        "G-buffer as the guide (default off)",
+    )
+    p.add_argument(
+        "--ring-scale",
+        type=finite_float,
+        default=defaults.ring_scale,
+        metavar="S",
+        help=f"the ring's outer edge, in window radii (default {defaults.ring_scale:g})",
+    )
+    p.add_argument(
+        "--ring-step",
+        type=int,
+        default=defaults.ring_step,
+        metavar="N",
+        help=f"the ring traces every N-th pixel in x and y (default {defaults.ring_step})",
+    )
 
 
 def _add_fovea_spp_argument(p: argparse.ArgumentParser) -> None:
@@ -262,6 +311,11 @@ def _render_settings(args: argparse.Namespace) -> RenderSettings:
         shadow_maps=args.shadow_maps,
         shadow_map_size=args.shadow_map_size,
         indirect=args.indirect,
+        probes=args.probes,
+        reuse=args.reuse,
+        ring=args.ring,
+        ring_scale=args.ring_scale,
+        ring_step=args.ring_step,
         exposure_ev=args.exposure,
         tonemap=args.tonemap,
         antialias=args.antialias,
@@ -279,8 +333,8 @@ def _one_sample(args: argparse.Namespace, what: str) -> None:
             raise RenderSettingsError(f"{flag} {value}: {what} renders one sample per pixel ({flag} 1)")
 
 
-def _loop_settings(args: argparse.Namespace, start: float, adaptive: bool) -> LoopSettings:
-    """``LoopSettings`` from the budget options."""
+def _loop_settings(args: argparse.Namespace, start: float, adaptive: bool, saccade: bool = False) -> LoopSettings:
+    """``LoopSettings`` from the budget options (``saccade``: ``--saccade``, where the command has it)."""
     return LoopSettings(
         fps=args.fps if args.fps is not None else LoopSettings().fps,
         budget_ms=args.budget_ms,
@@ -288,6 +342,17 @@ def _loop_settings(args: argparse.Namespace, start: float, adaptive: bool) -> Lo
         min_window=args.min_window,
         max_window=args.max_window,
         start=start,
+        saccade=saccade,
+    )
+
+
+def _add_saccade_argument(p: argparse.ArgumentParser) -> None:
+    """``--saccade`` (``LoopSettings.saccade``)."""
+    p.add_argument(
+        "--saccade",
+        action="store_true",
+        help="while the gaze source labels a saccade (vision suppressed), place the window at the landing point "
+        "predicted from the saccade's direction and peak speed (main sequence) instead of at the gaze (default off)",
     )
 
 
@@ -400,6 +465,7 @@ def _add_replay_parser(sub: argparse._SubParsersAction) -> None:
     _add_scene_arguments(p)
     p.add_argument("--gaze", required=True, help="gaze source spec (trace:PATH, fixed:X,Y, webcam:..., cursor)")
     _add_budget_arguments(p, LoopSettings().fps)
+    _add_saccade_argument(p)
     length = p.add_mutually_exclusive_group()
     length.add_argument("--frames", type=int, default=None, help="frames to render")
     length.add_argument(
@@ -477,7 +543,7 @@ def _cmd_replay(args: argparse.Namespace) -> int:
     settings.validate()
     init_warp()
     source = _open_scene(args)
-    loop_settings = _loop_settings(args, args.start, adaptive=args.window is None)
+    loop_settings = _loop_settings(args, args.start, adaptive=args.window is None, saccade=args.saccade)
     outputs = ReplayOutputs(
         video=Path(args.out) if args.out else None,
         stats=Path(args.stats) if args.stats else None,
@@ -571,6 +637,8 @@ def _add_bench_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--indirect", action="store_true", help="the lights' indirect estimate in every configuration and the reference"
     )
+    _add_ring_arguments(p)
+    p.add_argument("--probes", action="store_true", help="the raster layer's reflection probe in every configuration")
 
 
 def _cmd_bench(args: argparse.Namespace) -> int:
@@ -600,6 +668,10 @@ def _cmd_bench(args: argparse.Namespace) -> int:
         exposure_ev=args.exposure,
         shadow_maps=args.shadow_maps,
         indirect=args.indirect,
+        probes=args.probes,
+        ring=args.ring,
+        ring_scale=args.ring_scale,
+        ring_step=args.ring_step,
     )
     base.validate()
     from .output import check_outputs
@@ -609,7 +681,7 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     results, notes = {}, {}
     with Progress(len(configs) * len(args.scenes), unit="config", budgeted=False) as bar:
         for path in args.scenes:
-            scene = open_scene_source(path).scene_at(None)
+            scene = open_scene_source(path, screen=tuple(args.size)).scene_at(None)
             camera = select_camera(scene.cameras, args.camera, source=str(path))
             sweep = SceneSweep(
                 scene, camera, base, gaze, args.repeats, args.reference_spp, fovea_fraction=args.fovea_fraction
@@ -620,6 +692,9 @@ def _cmd_bench(args: argparse.Namespace) -> int:
                 results[name].append(sweep.measure(config))
                 bar.update()
             note = f"reference: full, {args.reference_spp} spp, exposure {sweep.exposure_ev:+.2f} EV for every row"
+            if args.ring:
+                note += "; hybrid rows with the mid-resolution ring "
+                note += f"(--ring-scale {args.ring_scale:g}, --ring-step {args.ring_step})"
             if args.noise_spp:
                 noise = sweep.reference_noise(args.noise_spp)
                 note += f"; its own noise against {args.noise_spp} spp: FLIP {noise.flip_mean:.4f}"
@@ -675,6 +750,7 @@ def _add_view_parser(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--gaze", default="cursor", help="cursor (default), webcam:INDEX[?calibration=FILE] or trace:PATH")
     _add_budget_arguments(p, LoopSettings().fps)
+    _add_saccade_argument(p)
     _add_frame_arguments(
         p, "a fixed focus window (share of the screen) instead of the budget controller's (default: adaptive)", None
     )
@@ -705,7 +781,7 @@ def _cmd_view(args: argparse.Namespace) -> int:
     source = _open_scene(args)
     settings = ViewSettings(
         render=_render_settings(args),
-        loop=_loop_settings(args, 0.0, adaptive=args.window is None),
+        loop=_loop_settings(args, 0.0, adaptive=args.window is None, saccade=args.saccade),
         camera_path=args.camera,
         gaze=args.gaze,
         jpeg_quality=args.jpeg_quality,

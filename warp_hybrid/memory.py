@@ -7,9 +7,11 @@ layers and the per-light visibility of ``FrameBuffers``, the rasterizer's 64-bit
 slice per host thread, the passes' own per-pixel lists (focus list and weights, ray
 counts and transmittance, the post's luma and 8-bit images: ``PASS_BYTES_PER_PIXEL``
 plus ``PASS_BYTES_PER_PIXEL_LIGHT`` per light), a supersampled frame's sums, a
-supersampled window's own G-buffer and layers, and the host copies a frame returns.
+supersampled window's own G-buffer and layers, the second visibility layer behind
+alpha-blended surfaces where the scene has any, and the host copies a frame returns.
 ``scene_bytes`` is the device copy of the scene with its BVHs; ``shadow_map_bytes``
-the shadow maps where they are on (``lighting.shadow_maps``).  A test holds the
+the shadow maps where they are on (``lighting.shadow_maps``); ``probe_bytes`` the
+reflection probe where it is on (``lighting.probes``).  A test holds the
 estimate against the arrays a renderer really holds (never below, at most 1.5x).
 
 ``check_memory`` refuses, with the estimate in the message, a renderer whose estimate
@@ -27,6 +29,7 @@ import warp as wp
 
 from .core.gbuffer import CHANNELS
 from .errors import RenderSettingsError
+from .lighting.probes import level_sizes
 from .scene.model import Scene
 
 #: Radiance layers of ``FrameBuffers`` (raster, traced, composed), one vec3 each.
@@ -34,6 +37,8 @@ COLOR_LAYERS = 3
 #: The passes' own per-pixel buffers, and the part of them that grows with the lights.
 PASS_BYTES_PER_PIXEL = 56
 PASS_BYTES_PER_PIXEL_LIGHT = 4
+#: Temporal reuse: two frames of history, each a colour, an age, a depth and a normal.
+REUSE_BYTES_PER_PIXEL = 2 * (12 + 4 + 4 + 12)
 #: The rasterizer's depth/triangle key, one slice per host thread.
 KEY_BYTES = 8
 #: A frame's host copies per pixel: the 8-bit image, colour and visibility, and the
@@ -50,6 +55,10 @@ SHADOW_FACES = 6
 SHADOW_TEXEL_BYTES = 4
 SHADOW_SCRATCH_BYTES = 12
 PROJECTED_POINT_BYTES = 24
+#: Reflection probe: a cube's faces, vec4 texels, a vec3 colour per capture texel.
+PROBE_FACES = 6
+PROBE_TEXEL_BYTES = 16
+PROBE_COLOR_BYTES = 12
 
 
 def gbuffer_bytes_per_pixel() -> int:
@@ -72,8 +81,19 @@ class MemoryEstimate:
         return self.device + self.host
 
 
-def frame_bytes(width: int, height: int, lights: int, threads: int, spp: int = 1, fovea_spp: int = 1) -> int:
-    """Device bytes of the frame buffers of a ``width`` x ``height`` renderer (module docs)."""
+def frame_bytes(
+    width: int,
+    height: int,
+    lights: int,
+    threads: int,
+    spp: int = 1,
+    fovea_spp: int = 1,
+    alpha_layer: bool = False,
+    reuse: bool = False,
+) -> int:
+    """Device bytes of the frame buffers of a ``width`` x ``height`` renderer (module docs;
+    ``alpha_layer``: the second visibility layer behind alpha-blended surfaces;
+    ``reuse``: temporal reuse's two frames of history)."""
     gbuffer = gbuffer_bytes_per_pixel()
     layers = COLOR_LAYERS * 12 + 4 * lights
     per_pixel = gbuffer + layers + KEY_BYTES * threads + PASS_BYTES_PER_PIXEL + PASS_BYTES_PER_PIXEL_LIGHT * lights
@@ -81,6 +101,10 @@ def frame_bytes(width: int, height: int, lights: int, threads: int, spp: int = 1
         per_pixel += 12 + 4 * lights  # the sums of colour and visibility
     if fovea_spp > 1:
         per_pixel += gbuffer + layers  # the window's own G-buffer and layers
+    if alpha_layer:
+        per_pixel += gbuffer + 12 + KEY_BYTES * threads  # its G-buffer, colour and rasterizer keys
+    if reuse:
+        per_pixel += REUSE_BYTES_PER_PIXEL
     return per_pixel * width * height
 
 
@@ -93,6 +117,18 @@ def shadow_map_bytes(size: int, lights: int, threads: int, points: int) -> int:
     texels = size * size
     faces = SHADOW_FACES * lights * SHADOW_TEXEL_BYTES * texels
     return faces + (SHADOW_SCRATCH_BYTES + KEY_BYTES * threads) * texels + PROJECTED_POINT_BYTES * points
+
+
+def probe_bytes(size: int, threads: int, points: int) -> int:
+    """Device bytes of a reflection probe of ``size`` texels a face side (0: off): its
+    filtered levels (``lighting.probes.level_sizes``) and face cameras, the face's
+    G-buffer and colour it is captured into with the rasterizer's key slice per thread,
+    and the projected points."""
+    if size <= 0:
+        return 0
+    texels = sum(PROBE_FACES * s * s for s in level_sizes(size)) + PROBE_FACES
+    face = (gbuffer_bytes_per_pixel() + PROBE_COLOR_BYTES + KEY_BYTES * threads) * size * size
+    return PROBE_TEXEL_BYTES * texels + face + PROJECTED_POINT_BYTES * points
 
 
 def host_bytes(width: int, height: int, lights: int) -> int:
@@ -151,15 +187,20 @@ def check_memory(
     fovea_spp: int = 1,
     shadow_maps: int = 0,
     points: int = 0,
+    alpha_layer: bool = False,
+    probe: int = 0,
+    reuse: bool = False,
 ) -> MemoryEstimate:
     """The estimate for a renderer of this size (with ``scene`` still to upload, or
     None when it is on the device already; ``shadow_maps``: the maps' size, 0 when off,
-    for a scene of ``points`` points); a ``RenderSettingsError`` stating it when it
-    exceeds what ``device`` (and the host) has available now."""
+    for a scene of ``points`` points; ``alpha_layer``: the layer behind blended
+    surfaces; ``probe``: the reflection probe's face size, 0 when off; ``reuse``: temporal
+    reuse's history); a ``RenderSettingsError`` stating it when it exceeds what ``device``
+    (and the host) has available now."""
     upload = scene_bytes(scene) if scene is not None else 0
-    maps = shadow_map_bytes(shadow_maps, lights, threads, points)
+    maps = shadow_map_bytes(shadow_maps, lights, threads, points) + probe_bytes(probe, threads, points)
     estimate = MemoryEstimate(
-        device=frame_bytes(width, height, lights, threads, spp, fovea_spp) + maps + upload,
+        device=frame_bytes(width, height, lights, threads, spp, fovea_spp, alpha_layer, reuse) + maps + upload,
         host=host_bytes(width, height, lights),
         scene=upload,
     )

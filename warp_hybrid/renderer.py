@@ -8,10 +8,13 @@ There are no module-level globals; the clock is injected.
 
 A frame runs the mode's passes in order (``core.passes``), each on the frame's
 ``FrameContext``: shadow maps (raster and hybrid, when on; drawn again only when the
-scene moved) -> primary visibility (raster or ray cast) -> focus region (hybrid and
-full) -> deferred lighting (raster and hybrid; every pixel) ->
+scene moved) -> the reflection probe (raster and hybrid, when on; captured again only
+when the scene changed) -> primary visibility (raster or ray cast) -> focus region (hybrid and
+full) -> deferred lighting (raster and hybrid; every pixel) -> the layer behind
+alpha-blended surfaces (raster and hybrid, where the scene has any; ``lighting.alpha_layer``) ->
 tracing (hybrid and full; in hybrid mode under the budget guard, ``trace.guard``, when the
-frame has a deadline) -> compose (hybrid) -> post.  A supersampled frame (``spp`` > 1, full
+frame has a deadline) -> the ring's upsampling (hybrid with ``ring``;
+``compose.upsample``) -> compose (hybrid) -> post.  A supersampled frame (``spp`` > 1, full
 mode; ``supersample``) runs the passes before the post once per sample, each at its own
 point in every pixel, accumulates them, renders the G-buffer once more at the pixel
 centres and posts the average.
@@ -28,13 +31,20 @@ import numpy as np
 import warp as wp
 
 from .compose import Compositor
+from .compose.reuse import TemporalReuse
+from .compose.upsample import RingUpsampler
 from .core.camera import make_camera_gpu
+from .core.features import analyse_features
 from .core.gbuffer import GBuffer
 from .core.passes import FrameBuffers, FrameContext, RenderPass
 from .errors import ArgumentTypeError, RenderSettingsError
 from .field_types import check_field_types
 from .focus import SHAPES, FocusRegionBuilder, FocusWindow
+from .focus.ring import RingSpec
+from .focus.ring_builder import RingedFocusBuilder
+from .lighting.alpha_layer import AlphaLayer
 from .lighting.deferred import DeferredLighting
+from .lighting.probes import PROBE_SIZE, ReflectionProbe
 from .lighting.shadow_maps import DEFAULT_MAP_SIZE, MAX_MAP_SIZE, MIN_MAP_SIZE, ShadowMaps
 from .memory import check_memory
 from .parallel import Launcher, default_thread_count
@@ -78,6 +88,18 @@ class RenderSettings:
     ``indirect``: both layers add the lights' interreflected light, one estimate per
     scene from their emitted power (``lighting.indirect``), to the diffuse ambient, so
     shadowed surfaces are not black in a scene without a dome; off by default.
+    ``ring``: the mid-resolution ring (hybrid mode; ``focus.ring``): around the window,
+    out to ``ring_scale`` x its half extents, the effects are traced at every
+    ``ring_step``-th pixel in x and y and upsampled with the G-buffer as the guide
+    (``compose.upsample``); off by default (ignored in raster and full modes).
+    ``probes``: the raster layer's glossy ambient (mirrors, metals, glass outside the
+    traced window) reads a reflection probe, the scene captured by the rasterizer from
+    the camera's position at the first frame and again whenever the scene changes, with
+    the dome where it saw background (``lighting.probes``), instead of the dome alone
+    (black without one); raster and hybrid modes; off by default.
+    ``reuse``: temporal reuse (hybrid mode; ``compose.reuse``): where the window no
+    longer traces, the last frames' traced values reprojected through the G-buffer,
+    fading to the raster layer over a few frames; off by default.
     """
 
     width: int = 640
@@ -100,6 +122,16 @@ class RenderSettings:
     shadow_maps: bool = False
     shadow_map_size: int = DEFAULT_MAP_SIZE
     indirect: bool = False
+    ring: bool = False
+    ring_scale: float = RingSpec.scale
+    ring_step: int = RingSpec.step
+    probes: bool = False
+    reuse: bool = False
+
+    @property
+    def ring_spec(self) -> RingSpec | None:
+        """The ring's sizing where a frame has one (``ring`` on, hybrid mode), else None."""
+        return RingSpec(self.ring_scale, self.ring_step) if self.ring and self.mode == "hybrid" else None
 
     def validate(self) -> None:
         """Raise ``RenderSettingsError`` for values that cannot be honoured (an
@@ -134,6 +166,7 @@ class RenderSettings:
             raise RenderSettingsError(
                 f"shadow map size must be in {MIN_MAP_SIZE}..{MAX_MAP_SIZE} texels per face, got {self.shadow_map_size}"
             )
+        RingSpec(self.ring_scale, self.ring_step).validate()
         if self.threads is not None and self.threads < 1:
             raise RenderSettingsError(f"threads must be >= 1, got {self.threads}")
         for name, what, mode in (
@@ -251,33 +284,62 @@ class Renderer:
         s = self.settings
         threads = s.threads if s.threads is not None else default_thread_count(self.device)
         maps = s.shadow_map_size if s.shadow_maps and s.mode != "full" else 0
+        probe = PROBE_SIZE if s.probes and s.mode != "full" else 0
         lights = len(scene.lights)
-        check_memory(width, height, lights, threads, self.device, upload, s.spp, s.fovea_spp, maps, len(scene.points))
+        behind = s.mode != "full" and analyse_features(scene).blending
+        points = len(scene.points)
+        check_memory(
+            width,
+            height,
+            lights,
+            threads,
+            self.device,
+            upload,
+            spp=s.spp,
+            fovea_spp=s.fovea_spp,
+            shadow_maps=maps,
+            points=points,
+            alpha_layer=behind,
+            probe=probe,
+            reuse=s.reuse and s.mode == "hybrid",
+        )
 
     def _make_passes(self) -> list[RenderPass]:
-        """The mode's passes, in frame order (the shadow maps first, where the raster
-        layer is shaded and they are on)."""
+        """The mode's passes, in frame order (the shadow maps first and the reflection
+        probe next, where the raster layer is shaded and they are on)."""
         s = self.settings
         primary_cls = Rasterizer if s.primary == "raster" else RayCaster
         passes: list[RenderPass] = [primary_cls(self.launcher)]
         maps = ShadowMaps(self.launcher, s.shadow_map_size) if s.shadow_maps and s.mode != "full" else None
+        probe = ReflectionProbe(self.launcher, maps) if s.probes and s.mode != "full" else None
+        if probe is not None:
+            passes.insert(0, probe)
         if maps is not None:
             passes.insert(0, maps)
         if s.mode == "raster":
-            passes.append(DeferredLighting(self.launcher, maps))
+            passes += [DeferredLighting(self.launcher, maps, probe), AlphaLayer(self.launcher, maps, probe)]
         else:
-            focus = FocusRegionBuilder(self.launcher, s.width, s.height)
+            ring = s.ring_spec
+            if ring is None:
+                focus = FocusRegionBuilder(self.launcher, s.width, s.height)
+            else:
+                focus = RingedFocusBuilder(self.launcher, s.width, s.height, ring)
             tracer = Tracer(self.launcher, TraceSettings(max_depth=s.max_depth, shadow_samples=s.shadow_samples))
             passes.append(focus)
             if s.mode == "full":
                 passes.append(tracer)
             else:
-                lighting = DeferredLighting(self.launcher, maps)
+                lighting = DeferredLighting(self.launcher, maps, probe)
                 if s.fovea_spp > 1:
                     trace: RenderPass = FoveaSampler(tracer, s.fovea_spp, s.sample_seed)
                 else:
                     trace = GuardedTrace(tracer, focus)
-                passes += [lighting, trace, Compositor(self.launcher)]
+                passes += [lighting, AlphaLayer(self.launcher, maps, probe), trace]
+                if ring is not None:
+                    passes.append(RingUpsampler(self.launcher))
+                passes.append(Compositor(self.launcher))
+                if s.reuse:
+                    passes.append(TemporalReuse(self.launcher))
         passes.append(PostProcess(self.launcher, s.exposure_ev, s.tonemap, s.antialias))
         return passes
 
@@ -501,7 +563,19 @@ class Renderer:
         """The frame's tracing statistics."""
         layout = frame.region.layout
         full = frame.window is None
+        ring = frame.region.ring
+        spec = self.settings.ring_spec
+        ring_stats = {}
+        if spec is not None and not full:
+            ring_stats["ring"] = {
+                "scale": spec.scale,
+                "step": spec.step,
+                "traced": ring is not None,
+                "pixels": ring.count if ring is not None else 0,
+                "outer_fraction": ring.outer.covered_fraction if ring is not None else 0.0,
+            }
         return {
+            **ring_stats,
             "rays": rays.to_dict(),
             "window": {
                 "gaze": list(frame.window.gaze) if not full else None,

@@ -98,13 +98,13 @@ def _grid_quad(corner, edge_u, edge_v, n: int, material: int) -> MeshInput:
     return MeshInput(pts.reshape(-1, 3).astype(np.float32), np.asarray(idx, np.int32), material)
 
 
-def _pane_scene(opacity: float, thin: bool = True):
-    """A red pane (y = 1, thin-walled, 8 x 8 cells) between a light straight above and
-    a white floor."""
-    mats = [
-        Material("/floor", diffuse=(0.8, 0.8, 0.8), roughness=0.9),
-        Material("/pane", diffuse=(0.9, 0.1, 0.08), roughness=0.0, opacity=opacity, thin_walled=thin),
-    ]
+def _pane_scene(opacity: float, thin: bool = True, blended: bool = False):
+    """A red pane (y = 1, thin-walled, 8 x 8 cells; glass, or alpha-blended coverage
+    when ``blended``) between a light straight above and a white floor."""
+    pane = Material(
+        "/pane", diffuse=(0.9, 0.1, 0.08), roughness=0.0, opacity=opacity, thin_walled=thin, alpha_blended=blended
+    )
+    mats = [Material("/floor", diffuse=(0.8, 0.8, 0.8), roughness=0.9), pane]
     meshes = [
         quad((-3.0, 0.0, 3.0), (6.0, 0.0, 0.0), (0.0, 0.0, -6.0), 0),
         _grid_quad((-1.0, 1.0, 1.0), (2.0, 0.0, 0.0), (0.0, 0.0, -2.0), 8, 1),
@@ -114,11 +114,10 @@ def _pane_scene(opacity: float, thin: bool = True):
     return make_scene(meshes, mats, lights=[light], cameras=[cam]), cam
 
 
-def test_shadow_through_a_red_pane_is_red(device: str) -> None:
-    """Transmittance (1 - opacity) (1 - F(0)) tint with F(0) = 0.04 for IOR 1.5: the
-    floor under the pane keeps a red light, visibility = its luminance."""
-    opacity = 0.3
-    scene, cam = _pane_scene(opacity)
+def _under_the_pane(device: str, opacity: float, blended: bool = False):
+    """The pane scene traced, the floor alone traced (its unshadowed reference), the
+    floor's pixels and those of them under the pane."""
+    scene, cam = _pane_scene(opacity, blended=blended)
     lit_scene = make_scene(
         [quad((-3.0, 0.0, 3.0), (6.0, 0.0, 0.0), (0.0, 0.0, -6.0), 0)],
         scene.materials[:1],
@@ -131,6 +130,15 @@ def test_shadow_through_a_red_pane_is_red(device: str) -> None:
     x, z = out.position[..., 0], out.position[..., 2]
     under = floor & (np.abs(x) < 0.9) & (np.abs(z) < 0.9)
     assert under.sum() > 50
+    return out, ref, floor, under
+
+
+def test_shadow_through_a_red_pane_is_red(device: str) -> None:
+    """Transmittance (1 - opacity) (1 - F(0)) tint with F(0) = 0.04 for IOR 1.5: the
+    floor under the pane keeps a red light, visibility = its luminance."""
+    opacity = 0.3
+    out, ref, floor, under = _under_the_pane(device, opacity)
+    x, z = out.position[..., 0], out.position[..., 2]
     tint = (1.0 - opacity) * 0.96 * np.array([0.9, 0.1, 0.08])
     lum = 0.2126 * tint[0] + 0.7152 * tint[1] + 0.0722 * tint[2]
     vis = out.visibility[..., 0][under]
@@ -139,6 +147,15 @@ def test_shadow_through_a_red_pane_is_red(device: str) -> None:
     assert np.allclose(ratio, tint, rtol=1e-4)
     outside = floor & ((np.abs(x) > 1.1) | (np.abs(z) > 1.1))
     assert np.all(out.visibility[..., 0][outside] == 1.0)
+
+
+@pytest.mark.parametrize("opacity", [0.3, 0.75])
+def test_shadow_through_an_alpha_blended_pane_is_uncoloured(device: str, opacity: float) -> None:
+    """Coverage, not glass: the same red pane alpha-blended lets 1 - opacity of the light
+    through in every channel (no tint, no Fresnel)."""
+    out, ref, _, under = _under_the_pane(device, opacity, blended=True)
+    assert np.allclose(out.visibility[..., 0][under], 1.0 - opacity, atol=1e-6)
+    assert np.allclose(out.color[under] / ref.color[under], 1.0 - opacity, rtol=1e-4)
 
 
 @pytest.mark.parametrize("opacity", [0.3, 0.7])

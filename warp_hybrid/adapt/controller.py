@@ -258,9 +258,11 @@ class BudgetController:
 
     def tile_coverage(self, gaze: tuple[float, float], fraction: float) -> np.ndarray:
         """(tiles_y, tiles_x) int64: the pixels a window at ``gaze`` of ``fraction`` covers in each tile
-        (they sum to the window layout's exact ``count``)."""
-        start, stop = self._grid.spans(gaze, fraction, self.shape, self.feather_px)
-        return self._grid.counts(start, stop)
+        (they sum to the window layout's exact ``count``), plus its ring's traced pixels with a ring."""
+        layout = self._grid.layout(gaze, fraction, self.shape, self.feather_px)
+        coverage = self._grid.counts(*layout.row_spans())
+        ring = self.settings.ring
+        return coverage if ring is None else coverage + self._grid.ring_counts(layout, ring)
 
     # -- what the model knows -------------------------------------------------------------------------
 
@@ -299,7 +301,10 @@ class BudgetController:
 
         def trace_at(f: float) -> float:
             if f not in cache:
-                cache[f] = self._model.predict_spans(*self._grid.spans(gaze, f, self.shape, self.feather_px))
+                if s.ring is None:
+                    cache[f] = self._model.predict_spans(*self._grid.spans(gaze, f, self.shape, self.feather_px))
+                else:  # the window and its ring, from the per-tile counts
+                    cache[f] = self._model.predict(self.tile_coverage(gaze, f))
             return cache[f]
 
         def frame_at(f: float) -> float:
@@ -359,7 +364,9 @@ class BudgetController:
         room = self.settings.target_share * self.settings.budget_ms - last.before_trace_ms - last.after_trace_ms
         if per_pixel <= 0.0:
             return self.settings.max_window
-        return max(room, 0.0) / (per_pixel * self.width * self.height)
+        ring = self.settings.ring
+        per_window_pixel = 1.0 if ring is None else ring.traced_per_window_pixel
+        return max(room, 0.0) / (per_pixel * per_window_pixel * self.width * self.height)
 
     # -- learning -------------------------------------------------------------------------------------
 

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import RenderSettingsError
+from ..focus.ring import RingSpec
 
 
 @dataclass
@@ -68,6 +69,12 @@ class ControllerSettings:
       instead of waiting for the forgetting factor.
     - ``skip_frames``: the first frames observed are not learnt from (e.g. one that
       compiles kernels).
+
+    The traced area:
+
+    - ``ring``: the mid-resolution ring every window gets (``focus.ring.RingSpec``), or
+      None: with one, a window's predicted cost includes its ring's lattice pixels, so
+      the window and its ring are sized together.
     """
 
     budget_ms: float
@@ -87,6 +94,7 @@ class ControllerSettings:
     change_threshold: float = 0.02
     surprise: float = 0.25
     skip_frames: int = 0
+    ring: RingSpec | None = None
 
     def validate(self) -> None:
         """Raise ``RenderSettingsError`` naming the first value that cannot be honoured."""
@@ -111,6 +119,10 @@ class ControllerSettings:
         _number(self, "change_threshold", low=0.0, high=1.0, high_open=True)
         _number(self, "surprise", low=0.0, low_open=True)
         _integer(self, "skip_frames", low=0)
+        if self.ring is not None:
+            if not isinstance(self.ring, RingSpec):
+                raise RenderSettingsError(f"controller ring must be a RingSpec or None, got {self.ring!r}")
+            self.ring.validate()
 
 
 def _number(

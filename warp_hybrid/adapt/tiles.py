@@ -15,7 +15,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..focus.window import FocusWindow
+from ..focus.ring import RingSpec
+from ..focus.window import FocusWindow, WindowLayout
 
 
 class TileGrid:
@@ -41,12 +42,14 @@ class TileGrid:
         """``(tiles_y, tiles_x)``."""
         return self.tiles_y, self.tiles_x
 
+    def layout(self, gaze: tuple[float, float], fraction: float, shape: str, feather_px: float) -> WindowLayout:
+        """A window at ``gaze`` placed on this screen."""
+        window = FocusWindow(gaze=gaze, fraction=fraction, shape=shape, feather_px=feather_px)
+        return window.layout(self.width, self.height)
+
     def spans(self, gaze: tuple[float, float], fraction: float, shape: str, feather_px: float):
         """Per screen row the covered columns ``[start, stop)`` of a window at ``gaze``."""
-        layout = FocusWindow(gaze=gaze, fraction=fraction, shape=shape, feather_px=feather_px).layout(
-            self.width, self.height
-        )
-        return layout.row_spans()
+        return self.layout(gaze, fraction, shape, feather_px).row_spans()
 
     def _clipped(self, start: np.ndarray, stop: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(H, tiles_x) covered column runs clipped to each tile column (``lo <= hi``)."""
@@ -58,6 +61,22 @@ class TileGrid:
         """(tiles_y, tiles_x) int64: covered pixels per tile."""
         lo, hi = self._clipped(start, stop)
         return np.add.reduceat(hi - lo, self._row_starts, axis=0)
+
+    def lattice_counts(self, start: np.ndarray, stop: np.ndarray, step: int) -> np.ndarray:
+        """(tiles_y, tiles_x) int64: covered pixels per tile on the lattice of every
+        ``step``-th column and row (``x % step == 0 == y % step``, ``focus.ring``)."""
+        lo, hi = self._clipped(start, stop)
+        n = -(-hi // step) - (-(-lo // step))
+        n[np.arange(self.height) % step != 0] = 0
+        return np.add.reduceat(n, self._row_starts, axis=0)
+
+    def ring_counts(self, window: WindowLayout, ring: RingSpec) -> np.ndarray:
+        """(tiles_y, tiles_x) int64: the traced pixels per tile of ``window``'s ring
+        (its lattice pixels between the window and the outer shape)."""
+        outer = ring.outer(window)
+        if outer is None:
+            return np.zeros(self.shape, dtype=np.int64)
+        return self.lattice_counts(*outer.row_spans(), ring.step) - self.lattice_counts(*window.row_spans(), ring.step)
 
     def sums(self, start: np.ndarray, stop: np.ndarray, prefix: np.ndarray) -> np.ndarray:
         """Per tile, the sum of a per-pixel map over the covered pixels.

@@ -8,9 +8,9 @@ traced buffer holds outside the window, NaN included, never leaks in) and exactl
 
 The kernel follows ``Launcher.launch_pixels`` (last inputs ``row0, row_step, cols``):
 one launch item per row on the CPU, one thread per pixel on CUDA.  It runs over the
-rows the weights can be non-zero in (the focus window's bounding rows); the other rows
-of ``out`` are ``raster`` copied (a memory copy, the same values the blend gives at
-weight 0).
+rows the weights can be non-zero in (the focus window's bounding rows, its ring's with
+``--ring``); the other rows of ``out`` are ``raster`` copied (a memory copy, the same
+values the blend gives at weight 0).
 """
 
 from __future__ import annotations
@@ -60,8 +60,7 @@ class Compositor(RenderPass):
         weights into the frame's colour."""
         assert frame.region is not None, "the focus pass runs first"
         b = frame.buffers
-        layout = frame.region.layout
-        self.blend(b.raster_color, b.traced_color, frame.region.weight, b.color, frame.timer, (layout.y0, layout.y1))
+        self.blend(b.raster_color, b.traced_color, frame.region.weight, b.color, frame.timer, frame.region.rows)
 
     def blend(
         self,

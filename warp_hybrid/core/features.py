@@ -32,6 +32,7 @@ class SceneFeatures:
     reflections: bool = _effect(traced=True)
     refractions: bool = _effect(traced=True)
     transparency: bool = _effect(traced=True)
+    blending: bool = _effect(traced=True)
     environment: bool = _effect(traced=True)
     emission: bool = _effect(traced=True)
     cutouts: bool = _effect(traced=True)
@@ -64,7 +65,8 @@ def analyse_features(scene: Scene) -> SceneFeatures:
         shadows=bool(scene.lights),
         reflections=any(m.is_reflective for m in mats),
         refractions=any(m.is_refractive for m in mats),
-        transparency=any(m.is_transmissive for m in mats),
+        transparency=any(m.is_glass for m in mats),
+        blending=any(m.is_blended for m in mats),
         environment=scene.environment is not None,
         emission=any(m.is_emissive for m in mats),
         cutouts=any(m.is_cutout for m in mats),

@@ -9,10 +9,11 @@ import warp as wp
 
 # Material flag bits (``MaterialGPU.flags``), each tested by some kernel.
 FLAG_SPECULAR_WORKFLOW = wp.constant(1)
-FLAG_TRANSMISSIVE = wp.constant(2)
+FLAG_TRANSMISSIVE = wp.constant(2)  # glass (``Material.is_glass``): tinted, with Fresnel
 FLAG_REFRACTIVE = wp.constant(4)
 FLAG_CUTOUT = wp.constant(8)
 FLAG_VERTEX_COLOR = wp.constant(16)  # diffuse colour from ``SceneGPU.corner_colors``
+FLAG_BLENDED = wp.constant(32)  # alpha-blended coverage (``Material.is_blended``), never with FLAG_TRANSMISSIVE
 
 # Longest mip chain kept (level 15 of a 32768-texel image is 1 texel wide).
 MAX_MIP_LEVELS = 16

@@ -21,6 +21,7 @@ per resolution and reused, so a region returned by ``build`` is valid until the 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import warp as wp
@@ -30,6 +31,9 @@ from ..parallel import Launcher
 from ..timing import StageTimer
 from .kernels import SHAPE_CIRCLE, SHAPE_FULL, SHAPE_RECT, FocusGPU, focus_rows, list_runs
 from .window import FocusWindow, WindowLayout
+
+if TYPE_CHECKING:
+    from .ring import RingLayout
 
 _SHAPE_CODES = {"circle": SHAPE_CIRCLE, "rect": SHAPE_RECT, "full": SHAPE_FULL}
 _FAR = 1e30  # stand-in coordinate for a rect edge that is not a seam
@@ -42,12 +46,22 @@ class FocusRegion:
     ``pixels``: int32 flat indices ``row * W + col`` in row-major order; only the first
     ``count`` entries are meaningful (the array may be longer).  ``weight``: (H, W)
     float32 blend weight of the traced layer, > 0 exactly at the listed pixels.
+    ``ring``: the mid-resolution ring around the window (``focus.ring``), or None: its
+    lattice pixels follow the window's in the list, and its weights are > 0 over the
+    whole ring, whose other pixels the upsampler fills (``compose.upsample``).
     """
 
     pixels: wp.array
     count: int
     weight: wp.array
     layout: WindowLayout
+    ring: RingLayout | None = None
+
+    @property
+    def rows(self) -> tuple[int, int]:
+        """(first, stop): the only rows where ``weight`` may be > 0."""
+        covered = self.layout if self.ring is None else self.ring.outer
+        return covered.y0, covered.y1
 
 
 @dataclass

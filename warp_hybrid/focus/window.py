@@ -81,7 +81,7 @@ class WindowLayout:
         if scale == 1.0:
             return self
         shape = "rect" if self.shape == "full" else self.shape
-        return _placed(
+        return placed(
             shape,
             self.width,
             self.height,
@@ -169,10 +169,10 @@ class FocusWindow:
             hw, hh = scale * w / 2.0, scale * h / 2.0
             cx = _clamp_centre(gx, hw, w)
             cy = _clamp_centre(gy, hh, h)
-        return _placed(shape, width, height, cx, cy, hw, hh, self.feather_px)
+        return placed(shape, width, height, cx, cy, hw, hh, self.feather_px)
 
 
-def _placed(
+def placed(
     shape: str, width: int, height: int, cx: float, cy: float, hw: float, hh: float, feather_px: float
 ) -> WindowLayout:
     """The layout of a placed shape: its covered pixels' bounding box and count."""

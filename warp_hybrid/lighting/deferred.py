@@ -9,6 +9,11 @@ With shadow maps (``RenderSettings.shadow_maps``; ``shadow_maps.py``) each light
 term is multiplied by its shadow-map visibility at the pixel's point (a kernel variant
 of its own, so the unshadowed kernel is untouched); without them the raster layer is
 unshadowed.
+With a reflection probe (``RenderSettings.probes``; ``probes.py``) the glossy ambient
+term reads the probe (the room captured by the rasterizer, the dome where it saw
+background; ``probe_kernels.probe_specular``) instead of the dome alone: another kernel
+variant (``PROBED_SHADE_KERNELS``, with or without shadow maps), so the kernel without
+probes is untouched.
 Every pixel is shaded in every mode, the focus window's too: the raster layer is whole,
 so automatic exposure is metered on it whatever the window (one exposure per frame,
 independent of the gaze), and wherever the budget guard stops tracing short of the
@@ -36,10 +41,12 @@ from ..parallel import Launcher
 from ..scene.device import DeviceScene
 from ..scene.device.environment import environment_radiance
 from ..timing import StageTimer
-from .shading import diffuse_albedo, direct_light, shade_surface
+from .probe_kernels import ProbeGPU, probe_specular
+from .shading import diffuse_albedo, direct_light, shade_surface, shade_surface_with
 from .shadow_map_kernels import ShadowMapsGPU, shadow_visibility
 
 if TYPE_CHECKING:
+    from .probes import ReflectionProbe
     from .shadow_maps import ShadowMaps
 
 # FMA contraction across statements (what CUDA does by default): ~10-20% faster on the
@@ -48,16 +55,25 @@ _CPU_FLAGS = f"{wp.config.cpu_compiler_flags or '-march=native'} -ffp-contract=f
 wp.set_module_options({"enable_backward": False, "cpu_compiler_flags": _CPU_FLAGS})
 
 
-def _make_shade_kernel(shadowed: bool) -> wp.Kernel:
+def _make_shade_kernel(shadowed: bool, probed: bool = False) -> wp.Kernel:
     """The lighting kernel: per pixel, ``shade_pixel`` into ``color_out``.  With
     ``shadowed`` each light's direct term is multiplied by its shadow-map visibility
-    (``shadow_map_kernels.shadow_visibility``), in a module of its own (compiled only
-    when shadow maps are on, with the same options); without, the maps argument is
-    never read and the kernel is the lighting module's own, unchanged."""
+    (``shadow_map_kernels.shadow_visibility``); with ``probed`` the glossy ambient is the
+    reflection probe's (``probe_kernels.probe_specular``).  Either is a module of its own
+    (compiled only when its switch is on, with the same options); without both, the
+    maps and probe arguments are never read and the kernel is the lighting module's own,
+    unchanged."""
 
     @wp.func(inline=True)
     def shade_pixel(
-        scene: SceneGPU, amb: AmbientGPU, cam: CameraGPU, gb: GBufferArrays, sm: ShadowMapsGPU, x: int, y: int
+        scene: SceneGPU,
+        amb: AmbientGPU,
+        cam: CameraGPU,
+        gb: GBufferArrays,
+        sm: ShadowMapsGPU,
+        probe: ProbeGPU,
+        x: int,
+        y: int,
     ) -> wp.vec3:
         """Outgoing radiance of pixel (x, y)."""
         if gb.triangle_id[y, x] < 0:
@@ -81,6 +97,11 @@ def _make_shade_kernel(shadowed: bool) -> wp.Kernel:
                     transmissive = (flags & FLAG_TRANSMISSIVE) != 0
                     c = c * shadow_visibility(scene, sm, i, p, gb.geometric_normal[y, x], transmissive)
             direct += c
+        if wp.static(probed):
+            specular = probe_specular(scene, amb, probe, p, n, v, f0, opt.roughness)
+            return shade_surface_with(
+                scene, amb, n, v, base, kd, f0, gb.emission[y, x], opt.opacity, opt.ior, flags, direct, specular
+            )
         return shade_surface(
             scene, amb, n, v, base, kd, f0, opt.roughness, gb.emission[y, x], opt.opacity, opt.ior, flags, direct
         )
@@ -91,6 +112,7 @@ def _make_shade_kernel(shadowed: bool) -> wp.Kernel:
         cam: CameraGPU,
         gb: GBufferArrays,
         sm: ShadowMapsGPU,
+        probe: ProbeGPU,
         color_out: wp.array2d(dtype=wp.vec3),
         row0: int,
         row_step: int,
@@ -99,36 +121,51 @@ def _make_shade_kernel(shadowed: bool) -> wp.Kernel:
         r, c = wp.tid()
         y = row0 + r * row_step
         for x in range(c * cols, wp.min(c * cols + cols, cam.width)):
-            color_out[y, x] = shade_pixel(scene, amb, cam, gb, sm, x, y)
+            color_out[y, x] = shade_pixel(scene, amb, cam, gb, sm, probe, x, y)
 
-    if shadowed:
+    if shadowed or probed:
         options = {"enable_backward": False, "cpu_compiler_flags": _CPU_FLAGS}
         return wp.kernel(shade_pixels, module="unique", module_options=options)
     return wp.kernel(shade_pixels)
 
 
-#: The lighting kernel without and with shadow maps.
+#: The lighting kernel without and with shadow maps (no probe).
 SHADE_KERNELS = {shadowed: _make_shade_kernel(shadowed) for shadowed in (False, True)}
+#: The lighting kernel with a reflection probe, without and with shadow maps.
+PROBED_SHADE_KERNELS = {shadowed: _make_shade_kernel(shadowed, True) for shadowed in (False, True)}
 #: The maps argument of the unshadowed kernel (never read).
 _NO_MAPS = ShadowMapsGPU()
+#: The probe argument of the kernels without a probe (never read).
+_NO_PROBE = ProbeGPU()
+
+
+def shade_kernel(shadowed: bool, probed: bool) -> wp.Kernel:
+    """The lighting kernel for shadow maps on or off and a probe or none."""
+    return (PROBED_SHADE_KERNELS if probed else SHADE_KERNELS)[shadowed]
 
 
 class DeferredLighting(RenderPass):
     """The "lighting" stage: G-buffer in, linear HDR colour (the raster layer) out,
     shadowed by ``shadow_maps`` when given (the renderer's "shadow_maps" pass, which
-    runs earlier in the frame)."""
+    runs earlier in the frame), its glossy ambient from ``probe`` when given (the
+    "probes" pass, after the maps)."""
 
-    def __init__(self, launcher: Launcher, shadow_maps: ShadowMaps | None = None) -> None:
+    def __init__(
+        self, launcher: Launcher, shadow_maps: ShadowMaps | None = None, probe: ReflectionProbe | None = None
+    ) -> None:
         """Shade on ``launcher``'s device, splitting rows across its threads."""
         self.launcher = launcher
         self.shadow_maps = shadow_maps
-        launcher.ensure_loaded(SHADE_KERNELS[shadow_maps is not None])  # compiles the lighting module up front
+        self.probe = probe
+        # compiles the lighting module (or the variant's) up front
+        launcher.ensure_loaded(shade_kernel(shadow_maps is not None, probe is not None))
 
     def execute(self, frame: FrameContext) -> None:
         """Shade ``frame``'s G-buffer into its raster layer (every pixel)."""
         assert self.scene is not None, "set_scene first"
         maps = self.shadow_maps.gpu if self.shadow_maps is not None else None
-        self.shade(self.scene, frame.camera, frame.gbuffer, frame.buffers.raster_color, frame.timer, maps)
+        probe = self.probe.gpu if self.probe is not None else None
+        self.shade(self.scene, frame.camera, frame.gbuffer, frame.buffers.raster_color, frame.timer, maps, probe)
 
     def shade(
         self,
@@ -138,22 +175,25 @@ class DeferredLighting(RenderPass):
         color_out: wp.array,
         timer: StageTimer,
         maps: ShadowMapsGPU | None = None,
+        probe: ProbeGPU | None = None,
     ) -> None:
         """Write the linear radiance of every pixel, (H, W) vec3, into ``color_out``
-        (each light's direct term times its visibility in ``maps`` when given)."""
+        (each light's direct term times its visibility in ``maps`` when given, the
+        glossy ambient from ``probe`` when given)."""
         h, w = gbuffer.height, gbuffer.width
         if tuple(color_out.shape) != (h, w) or (camera.width, camera.height) != (w, h):
             raise ValueError(
                 f"color_out {tuple(color_out.shape)} and camera {camera.width}x{camera.height} "
                 f"must match the G-buffer ({w}x{h})"
             )
-        kernel = SHADE_KERNELS[maps is not None]
+        kernel = shade_kernel(maps is not None, probe is not None)
         inputs = [
             scene.gpu,
             scene.ambient,
             camera,
             gbuffer.kernel_arrays(),
             _NO_MAPS if maps is None else maps,
+            _NO_PROBE if probe is None else probe,
             color_out,
         ]
         with timer.stage("lighting"):

@@ -9,9 +9,11 @@ The radiance leaving a surface toward the viewer is assembled by the caller as::
 
 where ``T_i`` is the caller's RGB transmittance toward light i (1 unshadowed; the
 deferred pass reads it from the shadow tracer's buffer, the tracer computes it with
-shadow rays at secondary hits).  Callers that trace light paths themselves use the
-pieces: ``light_response`` for a light sample they already have, ``ambient_diffuse``
-and ``ambient_specular`` (``lighting/ambient.py``) separately.
+shadow rays at secondary hits).  ``shade_surface_with`` takes the glossy ambient
+term from the caller instead (the deferred pass's reflection probe).  Callers that
+trace light paths themselves use the pieces: ``light_response`` for a light sample
+they already have, ``ambient_diffuse`` and ``ambient_specular`` (``lighting/ambient.py``)
+separately.
 
 Conventions: ``n`` unit shading normal facing the viewer, ``v`` unit direction toward
 the viewer, ``albedo`` the diffuse colour (already times 1 - metallic; the
@@ -77,6 +79,34 @@ def diffuse_albedo(
 
 
 @wp.func(inline=True)
+def shade_surface_with(
+    scene: SceneGPU,
+    amb: AmbientGPU,
+    n: wp.vec3,
+    v: wp.vec3,
+    albedo: wp.vec3,
+    kd: wp.vec3,
+    f0: wp.vec3,
+    emission: wp.vec3,
+    opacity: float,
+    ior: float,
+    flags: int,
+    direct: wp.vec3,
+    specular: wp.vec3,
+) -> wp.vec3:
+    """``shade_surface`` with the caller's glossy ambient ``specular`` in place of the
+    dome's (the deferred pass gives a reflection probe's, ``probe_kernels``)."""
+    c = emission + direct
+    c += ambient_diffuse(scene, amb, n, v, kd, f0)
+    c += specular
+    if (flags & FLAG_TRANSMISSIVE) != 0 and scene.environment.enabled != 0:
+        o = wp.clamp(opacity, 0.0, 1.0)
+        f = fresnel_dielectric(wp.max(wp.dot(n, v), COS_EPS), ior)
+        c += wp.cw_mul(albedo, environment_radiance(scene, -v)) * ((1.0 - o) * (1.0 - f))
+    return c
+
+
+@wp.func(inline=True)
 def shade_surface(
     scene: SceneGPU,
     amb: AmbientGPU,
@@ -94,11 +124,5 @@ def shade_surface(
 ) -> wp.vec3:
     """Raster shading of one point: emission + the caller's (shadowed) ``direct`` sum +
     the dome's diffuse and glossy light + the transmissive approximation."""
-    c = emission + direct
-    c += ambient_diffuse(scene, amb, n, v, kd, f0)
-    c += ambient_specular(scene, amb, n, v, f0, roughness)
-    if (flags & FLAG_TRANSMISSIVE) != 0 and scene.environment.enabled != 0:
-        o = wp.clamp(opacity, 0.0, 1.0)
-        f = fresnel_dielectric(wp.max(wp.dot(n, v), COS_EPS), ior)
-        c += wp.cw_mul(albedo, environment_radiance(scene, -v)) * ((1.0 - o) * (1.0 - f))
-    return c
+    specular = ambient_specular(scene, amb, n, v, f0, roughness)
+    return shade_surface_with(scene, amb, n, v, albedo, kd, f0, emission, opacity, ior, flags, direct, specular)

@@ -36,7 +36,6 @@ first frame.  ``renders`` counts drawings.  The lookup is ``shadow_map_kernels``
 
 from __future__ import annotations
 
-import copy
 import math
 
 import numpy as np
@@ -45,10 +44,10 @@ import warp as wp
 from ..core.camera import CameraGPU, make_camera_gpu
 from ..core.gbuffer import GBuffer, GBufferRows
 from ..core.passes import FrameContext, RenderPass
-from ..core.scene_gpu import SceneGPU
 from ..parallel import Launcher
 from ..primary import Rasterizer
 from ..scene.device import DeviceScene
+from ..scene.device.subset import hide_materials
 from ..scene.model import Camera, Light, LightKind, Scene
 from ..timing import StageTimer
 from .shadow_map_kernels import ShadowMapsGPU, visibility_kernel
@@ -88,23 +87,9 @@ class HitRecordTarget:
 
 
 def caster_scene(scene: DeviceScene) -> DeviceScene:
-    """``scene`` as the maps are drawn: ``scene`` itself when every triangle casts,
-    else a shallow copy whose ``gpu`` indices collapse each emissive or transmissive
-    triangle to its first corner (zero area: it covers nothing), ids unchanged."""
-    materials = scene.scene.materials
-    skip = np.array([m.is_emissive or m.is_transmissive for m in materials] or [False], dtype=bool)
-    tri_skip = skip[np.asarray(scene.scene.triangle_material, dtype=np.int64)]
-    if not tri_skip.any():
-        return scene
-    indices = np.array(scene.scene.indices, dtype=np.int32)
-    indices[tri_skip] = indices[tri_skip][:, :1]
-    view = copy.copy(scene)
-    view.indices = wp.array(indices.reshape(-1), dtype=wp.int32, device=scene.device)
-    view.gpu = SceneGPU()
-    for name in SceneGPU.vars:
-        setattr(view.gpu, name, getattr(scene.gpu, name))
-    view.gpu.indices = view.indices
-    return view
+    """``scene`` as the maps are drawn: its emissive and transmissive triangles hidden
+    (``scene.device.subset.hide_materials``)."""
+    return hide_materials(scene, lambda m: m.is_emissive or m.is_transmissive)
 
 
 def light_geometry(light: Light) -> tuple[float, ...]:
@@ -127,7 +112,7 @@ def _basis(forward: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return right, np.cross(right, forward)
 
 
-def _face_camera(origin: np.ndarray, forward: np.ndarray, tan: float, near: float, far: float, size: int) -> CameraGPU:
+def face_camera(origin: np.ndarray, forward: np.ndarray, tan: float, near: float, far: float, size: int) -> CameraGPU:
     """The kernel camera at ``origin`` looking along unit ``forward`` (frame ``_basis``)
     with a square field of view of half-angle tangent ``tan``."""
     right, up = _basis(forward)
@@ -158,7 +143,7 @@ def light_faces(light: Light, scene: Scene, size: int) -> list[tuple[CameraGPU, 
         half = max(float(np.abs(rel @ np.stack(_basis(forward), axis=1)).max()) * MARGIN, 1e-30)
         deep = max(float(np.abs(rel @ forward).max()) * MARGIN, 1e-30)
         back = DISTANT_BACK * max(half, deep)
-        camera = _face_camera(centre - forward * back, forward, half / (back - deep), back - deep, back + deep, size)
+        camera = face_camera(centre - forward * back, forward, half / (back - deep), back - deep, back + deep, size)
         return [(camera, True)]
     origin = np.asarray(light.position, dtype=np.float64)
     far = max(float(np.linalg.norm(corners - origin, axis=1).max()) * MARGIN, 1e-30)
@@ -173,7 +158,7 @@ def light_faces(light: Light, scene: Scene, size: int) -> list[tuple[CameraGPU, 
         # up the other two axes): some of them point to the emitting side when
         # sign emits[axis] + the other components' magnitudes > 0.
         reach = sign * emits[axis] + float(np.abs(np.delete(emits, axis)).sum())
-        camera = _face_camera(origin, forward, 1.0, near, max(far, 2.0 * near), size)
+        camera = face_camera(origin, forward, 1.0, near, max(far, 2.0 * near), size)
         faces.append((camera, reach > 0.0 or not _emits_one_side(light)))
     return faces
 

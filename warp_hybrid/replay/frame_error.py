@@ -8,7 +8,8 @@ frame's reference (``--mode full`` at ``spp`` samples per pixel, the same scene 
 camera, size and tracing settings), exposes and tone maps it at that frame's own exposure
 (a test frame and its reference never mix exposures; an automatic exposure is metered
 on the test frame) and measures ``metrics.evaluate``: FLIP mean, foveated FLIP around
-the frame's gaze, FLIP inside and outside the frame's window, PSNR.
+the frame's gaze, FLIP inside and outside the frame's window (where it was placed: with
+``--saccade`` at the predicted landing point), PSNR.
 
 ``errors.csv`` (``ERROR_COLUMNS``): ``frame, t, gaze_x, gaze_y, window_fraction,
 traced_fraction, exposure_ev, flip_mean, flip_foveated, flip_inside, flip_outside,
@@ -62,6 +63,7 @@ class KeptFrame:
     index: int
     t: float
     gaze: tuple[float, float]
+    window_centre: tuple[float, float]  # where the window was placed (``--saccade``: not the gaze)
     window_fraction: float
     traced_fraction: float
     exposure_ev: float
@@ -95,11 +97,14 @@ class FrameErrors:
     def keep(self, frame: LoopFrame) -> None:
         """Store ``frame``'s images and its metadata (call before the next frame renders)."""
         np.savez(self._path(frame.index), srgb=frame.frame.image, linear=frame.frame.color)
+        gaze = (frame.gaze.x, frame.gaze.y)
+        placed = (frame.frame.stats.get("window") or {}).get("gaze")
         self.kept.append(
             KeptFrame(
                 index=frame.index,
                 t=frame.t,
-                gaze=(frame.gaze.x, frame.gaze.y),
+                gaze=gaze,
+                window_centre=tuple(placed) if placed is not None else gaze,
                 window_fraction=frame.window_fraction,
                 traced_fraction=frame.traced_fraction,
                 exposure_ev=float(frame.frame.stats["exposure_ev"]),
@@ -135,7 +140,8 @@ class FrameErrors:
                 images = np.load(self._path(kept.index))
                 window = None
                 if rs.mode == "hybrid":
-                    layout = FocusWindow(kept.gaze, kept.window_fraction, rs.window_shape).layout(rs.width, rs.height)
+                    window_at = FocusWindow(kept.window_centre, kept.window_fraction, rs.window_shape)
+                    layout = window_at.layout(rs.width, rs.height)
                     window = layout_mask(layout)
                 error = evaluate(srgb, images["srgb"], linear, images["linear"], kept.gaze, window, self.viewing)
                 rows.append(_row(kept, error))

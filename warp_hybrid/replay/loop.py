@@ -26,6 +26,7 @@ from typing import Any
 from gaze.source import SACCADE, GazeSample
 
 from ..adapt import BudgetController, ControllerSettings, FrameCost, WindowPlan
+from ..adapt.saccade import SaccadePredictor
 from ..errors import RenderSettingsError
 from ..focus import FocusWindow
 from ..renderer import Frame, Renderer, RenderSettings
@@ -40,6 +41,11 @@ TRACE_STAGES = ("trace_setup", "trace_shadow", "trace_secondary")
 #: "relight" no longer runs (the raster layer is shaded everywhere); it stays in the
 #: stats CSV's columns (always 0) so the file keeps its format.
 AFTER_TRACE_STAGES = ("relight", "accumulate", "compose", "tonemap", "aa", "readback", "adapt")
+#: Stages added later, their columns appended in this order: the shadow maps, the layer
+#: behind alpha-blended surfaces, the ring's upsampling, the reflection probe, temporal reuse.
+LATER_STAGES = ("shadow_maps", "alpha_layer", "upsample", "probes", "reuse")
+#: Those of them that run after tracing (reserved behind the deadline as well).
+LATER_AFTER_TRACE_STAGES = ("upsample", "reuse")
 #: Every stage a frame can report (the stats CSV's stage columns): in frame order, then
 #: the stages added later, appended so the existing columns keep their places.
 FRAME_STAGES = (
@@ -54,7 +60,7 @@ FRAME_STAGES = (
     "lighting",
     *TRACE_STAGES,
     *AFTER_TRACE_STAGES,
-    "shadow_maps",
+    *LATER_STAGES,
 )
 
 
@@ -66,7 +72,11 @@ class LoopSettings:
     ``adaptive``: in hybrid mode the controller sizes the window within
     [``min_window``, ``max_window``] (share of the screen) and the guard enforces the
     deadline; False keeps the render settings' fixed window.  ``start``: the first
-    frame's time in seconds from the start of the stage's time range.
+    frame's time in seconds from the start of the stage's time range.  ``saccade``:
+    while the gaze is labelled a saccade (vision is suppressed), the window (adaptive or
+    fixed) is placed at the landing point ``adapt.saccade.SaccadePredictor`` predicts
+    from the gaze samples (each frame's, and any the driver passes to ``saccade.add``
+    between frames) instead of at the gaze.
     """
 
     fps: float = 15.0
@@ -75,6 +85,7 @@ class LoopSettings:
     min_window: float = 0.01
     max_window: float = 1.0
     start: float = 0.0
+    saccade: bool = False
 
     @property
     def budget(self) -> float:
@@ -161,11 +172,13 @@ class AdaptiveLoop:
                 budget_ms=self.settings.budget,
                 min_window=self.settings.min_window,
                 max_window=self.settings.max_window,
+                ring=rs.ring_spec,
             )
             controller_settings.validate()
             self.controller = BudgetController(
                 controller_settings, rs.width, rs.height, shape=rs.window_shape, feather_px=rs.feather_px
             )
+        self.saccade = SaccadePredictor() if self.settings.saccade else None
         self._pending_ms: dict[str, float] = {}
         self._frame_start: float | None = None
         self.frames = 0
@@ -222,13 +235,19 @@ class AdaptiveLoop:
         plan: WindowPlan | None = None
         window: FocusWindow | None = None
         deadline: float | None = None
+        centre = (gaze.x, gaze.y)
+        if self.saccade is not None:
+            self.saccade.add(gaze)
+            landing = self.saccade.landing()
+            if landing is not None:
+                centre = landing.point
         if rs.mode == "hybrid":
             if self.controller is not None:
-                plan = self.controller.plan((gaze.x, gaze.y))
-                window = FocusWindow((gaze.x, gaze.y), plan.fraction, rs.window_shape, rs.feather_px)
+                plan = self.controller.plan(centre)
+                window = FocusWindow(centre, plan.fraction, rs.window_shape, rs.feather_px)
                 deadline = start + plan.trace_deadline_ms / 1000.0
             else:
-                window = self.renderer.default_window((gaze.x, gaze.y))
+                window = self.renderer.default_window(centre)
         frame = self.renderer.render(self.camera, window, trace_deadline=deadline, host_copies=False)
         stages = {**before, **frame.stats["stages_ms"]}
         timer = self.renderer.new_timer()
@@ -242,7 +261,7 @@ class AdaptiveLoop:
         traced = window_stats.get("covered_fraction", screen_fraction if screen_fraction is not None else 0.0)
         if self.controller is not None and tiles is not None:
             trace_ms = sum(stages.get(k, 0.0) for k in TRACE_STAGES)
-            after_ms = sum(stages.get(k, 0.0) for k in AFTER_TRACE_STAGES)
+            after_ms = sum(stages.get(k, 0.0) for k in (*AFTER_TRACE_STAGES, *LATER_AFTER_TRACE_STAGES))
             self.controller.observe(
                 FrameCost(
                     frame_ms=frame_ms,

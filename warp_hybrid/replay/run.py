@@ -23,6 +23,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from gaze.errors import GazeError
 from gaze.source import GazeSample, GazeSource, centre_sample
 
@@ -64,6 +66,17 @@ class SteadyGaze:
             return sample
         held = self.last_valid or sample or centre_sample(t)
         return GazeSample(held.x, held.y, t, confidence=0.0, valid=False)
+
+
+def recorded_times(source: GazeSource, after: float, before: float) -> list[float]:
+    """The times of a recorded trace's own samples in ``(after, before)`` (what the
+    tracker reported between two frames, for the saccade predictor); none for a source
+    that is not a recording."""
+    times = getattr(getattr(source, "data", None), "t", None)
+    if times is None:
+        return []
+    times = np.asarray(times, dtype=float)
+    return times[np.searchsorted(times, after, side="right") : np.searchsorted(times, before, side="left")].tolist()
 
 
 @dataclass
@@ -160,7 +173,8 @@ def replay(
     the summary; an interruption ends the replay early with whole outputs
     (``interrupted`` set).  With ``outputs.errors``, every frame's error against its
     reference is measured after the timed frames (not after an interruption) and its
-    medians join the summary."""
+    medians join the summary.  With the loop's saccade predictor (``--saccade``), the
+    trace's recorded samples between two frames reach it before each frame."""
     settings = loop.settings
     steady = SteadyGaze(gaze)
     rs = loop.renderer.settings
@@ -174,10 +188,15 @@ def replay(
     video = VideoWriter(outputs.video, rs.width, rs.height, settings.fps) if outputs.video else None
     stats = StatsWriter(outputs.stats, FRAME_STAGES) if outputs.stats else None
     errors = FrameErrors(loop, outputs.error_spp) if outputs.errors else None
+    if loop.saccade is not None:
+        loop.saccade.screen = getattr(gaze, "screen", loop.saccade.screen)  # the geometry of its I-VT labels
     try:
         with _sigterm_interrupts(), Progress(frames, enabled=progress) as bar:
             for i in range(frames):
                 t = settings.start + i / settings.fps
+                if loop.saccade is not None:
+                    for between in recorded_times(gaze, t - 1.0 / settings.fps, t):
+                        loop.saccade.add(steady.sample(between))
                 frame = loop.step(t, steady.sample(t))
                 if video is not None:
                     video.write(_overlaid(frame) if outputs.overlay else frame.frame.image)

@@ -92,6 +92,11 @@ class Material:
     ``diffuse_primvar``
     names the colour primvar the diffuse colour follows per corner (``Scene.corner_colors``:
     displayColor or a UsdPrimvarReader's primvar), "" for none.
+    ``alpha_blended``: opacity below 1 is coverage (alpha blending: a share ``opacity``
+    of the surface is there, fully shaded, and what lies behind shows through the rest,
+    untinted and unbent), not glass; the USD reader sets it where a material authors
+    no glass optics (``scene/usd/materials.py``).  Built by hand, a transmissive
+    material is glass unless this is set.
     """
 
     name: str
@@ -118,6 +123,7 @@ class Material:
     opacity_channel: int = 3
     normal_texture: int = -1
     diffuse_primvar: str = ""
+    alpha_blended: bool = False
 
     @property
     def is_vertex_colored(self) -> bool:
@@ -130,9 +136,19 @@ class Material:
         return (self.opacity < 1.0 or self.opacity_texture >= 0) and self.opacity_threshold <= 0.0
 
     @property
+    def is_blended(self) -> bool:
+        """Transmissive by coverage (alpha blending, ``alpha_blended``), not glass."""
+        return self.alpha_blended and self.is_transmissive
+
+    @property
+    def is_glass(self) -> bool:
+        """Transmissive as glass: tinted by its colour, with Fresnel (not alpha-blended)."""
+        return self.is_transmissive and not self.alpha_blended
+
+    @property
     def is_refractive(self) -> bool:
-        """Transmissive with bending: a solid dielectric (not thin-walled, IOR != 1)."""
-        return self.is_transmissive and not self.thin_walled and abs(self.ior - 1.0) > 1e-6
+        """Glass with bending: a solid dielectric (not thin-walled, IOR != 1)."""
+        return self.is_glass and not self.thin_walled and abs(self.ior - 1.0) > 1e-6
 
     @property
     def is_cutout(self) -> bool:
@@ -142,7 +158,7 @@ class Material:
     @property
     def is_reflective(self) -> bool:
         """Worth a reflection ray: metals, mirrors and smooth dielectrics."""
-        return self.metallic > 0.0 or self.roughness < SMOOTH_ROUGHNESS or self.is_transmissive
+        return self.metallic > 0.0 or self.roughness < SMOOTH_ROUGHNESS or self.is_glass
 
     @property
     def is_emissive(self) -> bool:

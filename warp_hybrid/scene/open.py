@@ -14,14 +14,18 @@ from pathlib import Path
 from ..errors import SceneError
 from .usd.loader import UsdSceneSource
 from .usd.stage import USD_SUFFIXES
-from .usd.subdivision import DEFAULT_LEVELS
+from .usd.subdivision_level import AUTO, DEFAULT_SCREEN, Levels
 
 
 def open_scene_source(
-    path: str | os.PathLike, strict: bool = False, subdivision_levels: int = DEFAULT_LEVELS
+    path: str | os.PathLike,
+    strict: bool = False,
+    subdivision_levels: Levels = AUTO,
+    screen: tuple[int, int] = DEFAULT_SCREEN,
 ) -> UsdSceneSource:
     """A scene source for ``path``, chosen by its extension (case-insensitive);
-    ``strict`` and ``subdivision_levels`` as for ``UsdSceneSource``.
+    ``strict``, ``subdivision_levels`` and ``screen`` (the render size) as for
+    ``UsdSceneSource``.
 
     Raises ``SceneError`` naming the file when it is missing, of an unsupported type,
     or cannot be loaded.
@@ -29,7 +33,7 @@ def open_scene_source(
     p = os.fspath(path)
     suffix = Path(p).suffix.lower()
     if suffix in USD_SUFFIXES:
-        return UsdSceneSource(p, strict=strict, subdivision_levels=subdivision_levels)
+        return UsdSceneSource(p, strict=strict, subdivision_levels=subdivision_levels, screen=screen)
     try:
         from .authoring.convert import MESH_SUFFIXES, mesh_file_to_stage
     except ImportError as exc:
@@ -39,6 +43,7 @@ def open_scene_source(
     if suffix in MESH_SUFFIXES:
         if not os.path.isfile(p):
             raise SceneError(p, "file not found")
-        return UsdSceneSource(p, stage=mesh_file_to_stage(p), strict=strict, subdivision_levels=subdivision_levels)
+        stage = mesh_file_to_stage(p)
+        return UsdSceneSource(p, stage=stage, strict=strict, subdivision_levels=subdivision_levels, screen=screen)
     supported = ", ".join(USD_SUFFIXES + MESH_SUFFIXES)
     raise SceneError(p, f"unsupported file type {suffix or '(no extension)'!r}; supported: {supported}")

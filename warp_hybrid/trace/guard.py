@@ -12,6 +12,11 @@ is the nested window up to the last ring done: its weights are rebuilt so the fe
 lies where tracing actually stopped, and the compositor shows the raster layer (shaded
 everywhere, ``lighting.deferred``) beyond it.  The innermost ring is always traced.
 A frame without a deadline is traced in one piece, as the plain ``Tracer`` pass does.
+With the mid-resolution ring (``focus.ring``) the ring's lattice pixels (after the
+window's in the planned region's list) are one more piece after the window's rings,
+estimated at the last ring's cost per pixel: a deadline cuts the ring first, and a frame
+that stops before it shows the window with its own feather.  The report counts the
+window's rings and pixels (the ring's are in the frame's ``ring`` stats).
 """
 
 from __future__ import annotations
@@ -74,25 +79,33 @@ class GuardedTrace(RenderPass):
         planned = frame.region
         tally = self.tracer.begin_frame(gb.width, gb.height)
         b.visibility.fill_(float("nan"))
-        count = ring_count(planned.count)
+        count = ring_count(planned.layout.count)
         rings = self.focus.rings(planned.layout, count, frame.timer)
+        pieces = [(rings.pixels, lo, hi) for lo, hi in zip([0, *rings.ring_ends[:-1]], rings.ring_ends)]
+        if planned.ring is not None:  # the mid-resolution ring's lattice pixels follow the window's
+            pieces.append((planned.pixels, planned.layout.count, planned.count))
         done = 0
         last_s = 0.0
-        start = 0
-        for end in rings.ring_ends:
+        last_n = 1
+        for pixels, start, end in pieces:
             now = frame.timer.now()
-            if done > 0 and now + last_s > frame.trace_deadline:
+            # The window's rings have equal areas; the mid-resolution ring after them is
+            # estimated at the last ring's cost per pixel.
+            estimate = last_s if done < count else last_s * (end - start) / last_n
+            if done > 0 and now + estimate > frame.trace_deadline:
                 break
             if end > start:
-                items = rings.pixels[start:end]
+                items = pixels[start:end]
                 self.tracer.trace(
                     self.scene, frame.camera, gb, items, end - start, b.traced_color, b.visibility, frame.timer
                 )
             last_s = frame.timer.now() - now
-            start = end
+            last_n = max(end - start, 1)
             done += 1
         frame.rays = tally
-        if done < count:
-            frame.region = self.focus.build_layout(rings.layouts[done - 1], frame.timer)
+        if done < len(pieces):
+            frame.region = self.focus.build_layout(rings.layouts[min(done, count) - 1], frame.timer)
         screen = float(gb.width * gb.height)
-        self.report = GuardReport(done, count, planned.count / screen, frame.region.count / screen)
+        self.report = GuardReport(
+            min(done, count), count, planned.layout.count / screen, frame.region.layout.count / screen
+        )

@@ -17,10 +17,14 @@ indirect estimate where it is on: ``lighting/ambient.ambient_diffuse``), plus
   ``GLOSSY_ROUGHNESS``, fading to 0 at ``SMOOTH_ROUGHNESS`` while the prefiltered dome
   term takes the rest (no speckle where a roughness texture crosses the cut); rougher
   surfaces keep the prefiltered dome term alone; total internal reflection is whole;
-* for transmissive materials a transmission ray (``optics``).
+* for transmissive materials a transmission ray (``optics``);
+* for alpha-blended ones (``FLAG_BLENDED``, coverage ``alpha`` = the opacity): the hit
+  shaded as an opaque surface (its reflection ray too) times ``alpha``, and a ray
+  straight on through it, untinted, weighted ``1 - alpha``.
 
 At d = max_depth the hit gets the raster shading (prefiltered dome reflection, the
-raster transmission approximation) with traced shadows.  A secondary hit skips the
+raster transmission approximation; an alpha-blended hit shows the dome through its
+uncovered share) with traced shadows.  A secondary hit skips the
 shadow ray (and the light) where the light's unshadowed contribution to the pixel is
 below ``MIN_THROUGHPUT`` times E / pi (what the light gives a white Lambertian surface
 facing it): e.g. the near-delta highlights of clear glass.
@@ -42,7 +46,7 @@ from ..core.camera import pixel_ray_direction
 from ..core.constants import INV_PI, SMOOTH_ROUGHNESS, mirror_share
 from ..core.gbuffer import GBufferArrays
 from ..core.pixel_list import listed_pixel
-from ..core.scene_gpu import FLAG_TRANSMISSIVE, AmbientGPU, SceneGPU
+from ..core.scene_gpu import FLAG_BLENDED, FLAG_TRANSMISSIVE, AmbientGPU, SceneGPU
 from ..lighting.ambient import ambient_diffuse, ambient_specular, env_brdf
 from ..lighting.lights import light_sample
 from ..lighting.shading import diffuse_albedo, light_response, shade_surface
@@ -147,6 +151,7 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
     shadows = variant.shadows
     reflections = variant.reflections
     transparency = variant.transparency
+    blending = variant.blending
     environment = variant.environment
     ambient = variant.ambient
     cutouts = variant.cutouts
@@ -201,6 +206,10 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
         transmissive = False
         if wp.static(transparency):
             transmissive = (h.flags & FLAG_TRANSMISSIVE) != 0
+        coverage = float(1.0)
+        if wp.static(blending):
+            if (h.flags & FLAG_BLENDED) != 0:
+                coverage = h.opacity
         traced = depth < tf.params.max_depth
         kd = h.albedo
         if traced:
@@ -241,6 +250,11 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
                     h.flags,
                     direct,
                 )
+            if wp.static(blending):
+                if coverage < 1.0:
+                    c = c * coverage
+                    if wp.static(environment):
+                        c += environment_radiance(scene, d) * (1.0 - coverage)
             out.radiance = wp.cw_mul(weight, c)
             return out
         c = h.emission + direct
@@ -282,6 +296,12 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
                         c += ambient_specular(scene, amb, n, v, h.specular, h.roughness) * (1.0 - share)
         elif wp.static(environment):
             c += ambient_specular(scene, amb, n, v, h.specular, h.roughness)
+        if wp.static(blending):
+            if coverage < 1.0:  # the covered share as an opaque surface, the rest straight on
+                c = c * coverage
+                a_w = a_w * coverage
+                b_w = wp.vec3(1.0 - coverage, 1.0 - coverage, 1.0 - coverage)
+                b_d = d
         out.radiance = wp.cw_mul(weight, c)
         if wp.static(secondary):
             a_w = wp.cw_mul(a_w, weight)

@@ -11,7 +11,8 @@ transmissive surface the transmittance is multiplied by ``(1 - opacity) (1 - F)`
 F the exact dielectric Fresnel reflectance for the material's IOR at the crossing
 angle (air-to-glass at every crossing: by reciprocity this is the reflectance a
 refracted ray would meet), and by the tint once per passage
-(``optics.transmission_tint``).  The first opaque surface stops the ray
+(``optics.transmission_tint``); an alpha-blended surface (``FLAG_BLENDED``) lets
+``1 - opacity`` through, untinted, with no Fresnel.  The first opaque surface stops the ray
 (transmittance 0).  Straight lines, no caustics.  A light the point cannot see at all
 (below its horizon, outside a spot cone, or behind the geometric surface of an opaque
 point) gets 0 and no ray.
@@ -30,7 +31,7 @@ import warp as wp
 
 from ..core.constants import luma709
 from ..core.pixel_list import listed_pixel
-from ..core.scene_gpu import FLAG_CUTOUT, FLAG_TRANSMISSIVE, SceneGPU
+from ..core.scene_gpu import FLAG_BLENDED, FLAG_CUTOUT, FLAG_TRANSMISSIVE, SceneGPU
 from ..lighting.brdf import fresnel_dielectric
 from ..lighting.light_sampling import center_ray_length, light_has_extent, sample_light_ray
 from ..lighting.lights import LightSample, light_sample
@@ -51,8 +52,11 @@ class ShadowResult:
 
 @wp.func
 def crossing_transmittance(scene: SceneGPU, face: int, u: float, v: float, d: wp.vec3) -> wp.vec3:
-    """What a shadow ray keeps crossing a transmissive surface (module docstring)."""
+    """What a shadow ray keeps crossing a transmissive or alpha-blended surface (module docstring)."""
     h = surface_at(scene, face, u, v, d)
+    if (h.flags & FLAG_BLENDED) != 0:
+        a = 1.0 - h.opacity
+        return wp.vec3(a, a, a)
     f = fresnel_dielectric(wp.dot(h.geometric_normal, d), h.ior)
     return transmission_tint(h) * (1.0 - f)
 
@@ -97,7 +101,7 @@ def _make_transmittance_func(layered: bool, cutouts: bool):
                             return zero
                         passes = True
                 if not passes:
-                    if (m.flags & FLAG_TRANSMISSIVE) == 0:
+                    if (m.flags & (FLAG_TRANSMISSIVE | FLAG_BLENDED)) == 0:
                         return zero
                     t = wp.cw_mul(t, crossing_transmittance(scene, face, q.u, q.v, d))
                     if max3(t) <= 0.0:

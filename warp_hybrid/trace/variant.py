@@ -36,8 +36,13 @@ class TraceVariant:
 
     @property
     def transparency(self) -> bool:
-        """Transmissive surfaces (refracting ones are transmissive too)."""
+        """Glass (refracting surfaces are glass too)."""
         return self.features.transparency or self.features.refractions
+
+    @property
+    def blending(self) -> bool:
+        """Alpha-blended surfaces: rays pass them straight on, weighted by the uncovered share."""
+        return self.features.blending
 
     @property
     def refractions(self) -> bool:
@@ -51,8 +56,8 @@ class TraceVariant:
 
     @property
     def secondary(self) -> bool:
-        """Any secondary (reflection or transmission) ray at all."""
-        return self.reflections or self.transparency
+        """Any secondary (reflection, transmission or pass-through) ray at all."""
+        return self.reflections or self.transparency or self.blending
 
     @property
     def environment(self) -> bool:
@@ -72,7 +77,7 @@ class TraceVariant:
     @property
     def layered_shadows(self) -> bool:
         """Shadow rays walk the surfaces that let light through, in order."""
-        return self.transparency or self.features.cutouts or self.features.emission
+        return self.transparency or self.blending or self.features.cutouts or self.features.emission
 
     def covers(self, features: SceneFeatures) -> bool:
         """Whether this variant can render a scene with ``features``."""

@@ -7,9 +7,17 @@ import pytest
 from pxr import Gf, Sdf, UsdGeom, Vt
 from usd_stage_kit import add_mesh, bind, mesh_world_points, new_stage, preview_material
 
+from warp_hybrid.scene.model import Camera
 from warp_hybrid.scene.usd import subdivision
 from warp_hybrid.scene.usd.loader import UsdSceneSource, load_scene
 from warp_hybrid.scene.usd.subdivision import Sharpness, refine
+from warp_hybrid.scene.usd.subdivision_level import (
+    MAX_AUTO_LEVELS,
+    TARGET_EDGE_PX,
+    auto_level,
+    cage_edge_px,
+    cage_edges,
+)
 
 CUBE_POINTS = [(x, y, z) for x in (-0.5, 0.5) for y in (-0.5, 0.5) for z in (-0.5, 0.5)]
 CUBE_FACES = [[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]]  # outward, CCW
@@ -220,9 +228,88 @@ def test_animated_control_points_refine_at_every_time(tmp_path):
     mesh.GetPointsAttr().Set(Vt.Vec3fArray([Gf.Vec3f(*p) for p in CUBE_POINTS]), 0.0)
     mesh.GetPointsAttr().Set(Vt.Vec3fArray([Gf.Vec3f(*(2 * np.array(p))) for p in CUBE_POINTS]), 10.0)
     stage.GetRootLayer().Save()
-    source = UsdSceneSource(path)
+    source = UsdSceneSource(path, subdivision_levels=1)
     first = source.scene_at(0.0)
     later = source.scene_at(10.0)
     assert first.meshes[0].animated
     np.testing.assert_allclose(mesh_world_points(later, "/World/Cube"), 2 * _refine_cube(1), atol=1e-6)
+    np.testing.assert_array_equal(later.indices, first.indices)
+
+
+def _camera_at(z: float, tan_half_fov_x: float = 0.5) -> Camera:
+    """A camera on the +Z axis looking down -Z (focal length 1 mm, aperture 2 tan)."""
+    m = np.eye(4)
+    m[2, 3] = z
+    return Camera("/Cam", cam_to_world=m, focal_length=1.0, horizontal_aperture=2.0 * tan_half_fov_x)
+
+
+def test_auto_level_halves_the_edge_down_to_the_target():
+    """Each level halves an edge: a 4-pixel edge needs 1 (the least), 8.1 pixels 2,
+    16 pixels 2, 32.5 pixels 4 -> 4 levels is the most."""
+    assert [auto_level(e) for e in (0.0, TARGET_EDGE_PX, 8.0, 8.1, 16.0, 16.5, 32.0)] == [1, 1, 1, 2, 2, 3, 3]
+    assert auto_level(1e9) == auto_level(float("inf")) == MAX_AUTO_LEVELS
+
+
+def test_cage_edge_px_is_the_mean_edge_over_the_pixel_footprint_at_the_nearest_instance():
+    """The unit cube's 12 edges of length 1 (each face edge counted twice), its near face
+    at distance d: the pixel footprint there is 2 d tan / width; the nearer instance counts."""
+    edges = cage_edges(np.array([4] * 6), np.ravel(CUBE_FACES))
+    assert edges.shape == (24, 2)
+    assert {tuple(sorted(e)) for e in edges.tolist()} == set(CUBE_EDGES)
+    camera = _camera_at(10.5)
+    near, far = np.eye(4), np.eye(4)
+    far[3, 2] = -20.0  # row-vector transforms: the translation is the last row
+    px = cage_edge_px(
+        np.array(CUBE_POINTS), np.array([4] * 6), np.ravel(CUBE_FACES), np.stack([far, near]), camera, 640
+    )
+    np.testing.assert_allclose(px, 1.0 / (2.0 * 10.0 * 0.5 / 640), rtol=1e-9)
+    inside = cage_edge_px(
+        np.array(CUBE_POINTS), np.array([4] * 6), np.ravel(CUBE_FACES), near[None], _camera_at(0.0), 640
+    )
+    np.testing.assert_allclose(inside, 1.0 / (2.0 * camera.near * 0.5 / 640), rtol=1e-9)
+
+
+def _camera_stage(tmp_path, distance: float):
+    stage, path = new_stage(tmp_path)
+    _cube(stage)
+    cam = UsdGeom.Camera.Define(stage, "/World/Cam")
+    cam.CreateFocalLengthAttr(50.0)
+    cam.CreateHorizontalApertureAttr(36.0)
+    cam.AddTranslateOp().Set(Gf.Vec3d(0, 0, distance))
+    stage.GetRootLayer().Save()
+    return path
+
+
+@pytest.mark.parametrize(
+    ("distance", "width", "expected"), [(60.5, 320, 1), (40.5, 320, 2), (20.5, 320, 3), (20.5, 1280, 4), (0.6, 640, 4)]
+)
+def test_auto_levels_follow_the_size_on_the_screen(tmp_path, distance, width, expected):
+    """The default (AUTO) level of the cube seen from ``distance`` on a ``width``-pixel
+    screen is the level the formula gives (tan(hfov / 2) = 0.36; inside the near plane,
+    1 unit by USD's fallback clippingRange, the footprint there): 4^L quads a face."""
+    path = _camera_stage(tmp_path, distance)
+    edge_px = 1.0 / (2.0 * max(distance - 0.5, 1.0) * 0.36 / width)
+    levels = auto_level(edge_px)
+    assert levels == expected
+    scene = load_scene(path, screen=(width, width * 3 // 4))
+    assert scene.triangle_count == 12 * 4**levels
+    np.testing.assert_allclose(mesh_world_points(scene, "/World/Cube"), _refine_cube(levels), atol=1e-6)
+
+
+def test_auto_level_is_kept_while_the_mesh_moves(tmp_path):
+    """Chosen once (at the first time evaluated), so the topology never changes: the cube
+    flying toward the camera keeps its level and its index array."""
+    stage, path = new_stage(tmp_path)
+    mesh = _cube(stage)
+    mesh.GetPointsAttr().Set(Vt.Vec3fArray([Gf.Vec3f(*p) for p in CUBE_POINTS]), 0.0)
+    mesh.GetPointsAttr().Set(Vt.Vec3fArray([Gf.Vec3f(p[0], p[1], p[2] + 50.0) for p in CUBE_POINTS]), 10.0)
+    cam = UsdGeom.Camera.Define(stage, "/World/Cam")
+    cam.CreateFocalLengthAttr(50.0)
+    cam.CreateHorizontalApertureAttr(36.0)
+    cam.AddTranslateOp().Set(Gf.Vec3d(0, 0, 60.5))
+    stage.GetRootLayer().Save()
+    source = UsdSceneSource(path, screen=(320, 240))
+    first = source.scene_at(0.0)
+    later = source.scene_at(10.0)
+    assert first.triangle_count == later.triangle_count == 12 * 4 ** auto_level(1.0 / (2.0 * 60.0 * 0.36 / 320))
     np.testing.assert_array_equal(later.indices, first.indices)

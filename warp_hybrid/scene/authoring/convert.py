@@ -8,7 +8,8 @@ when the file has none) and ``st`` uvs; materials become ``UsdPreviewSurface``:
 
 * glTF PBR: baseColorFactor -> diffuseColor (and the texture's RGBA ``scale``),
   metallic/roughness factors (glTF defaults 1 when absent), emissiveFactor, alphaMode
-  (BLEND -> opacity, MASK -> opacityThreshold), doubleSided;
+  (BLEND -> opacity with ``opacityMode = presence``: alpha blending, MASK ->
+  opacityThreshold), doubleSided;
 * OBJ/MTL: Kd -> diffuseColor, Ns -> roughness = (2 / (Ns + 2)) ** 0.25, metallic 0;
 * base colour textures are re-encoded as PNG files (the image trimesh decoded, so
   embedded GLB images work too) and referenced by path;
@@ -146,6 +147,7 @@ def _material_kwargs(
             kwargs["texture_scale"] = tuple(float(c) for c in factor)
     if alpha_mode in ("BLEND", "MASK"):
         kwargs["opacity"] = float(factor[3])
+        kwargs["opacity_mode"] = "presence"  # coverage (glTF's alpha), not glass
         kwargs["opacity_from_texture"] = has_alpha
         if alpha_mode == "MASK":
             cutoff = getattr(material, "alphaCutoff", None)

@@ -216,7 +216,7 @@ def define_material(
     roughness: float = 0.5,
     metallic: float = 0.0,
     opacity: float = 1.0,
-    ior: float = 1.5,
+    ior: float | None = 1.5,
     emissive: Vec3 | None = None,
     opacity_threshold: float | None = None,
     diffuse_texture: str | None = None,
@@ -224,6 +224,7 @@ def define_material(
     texture_color_space: str = "sRGB",
     texture_wrap: str = "repeat",
     opacity_from_texture: bool = False,
+    opacity_mode: str | None = None,
     custom_data: Mapping[str, object] | None = None,
 ) -> UsdShade.Material:
     """A ``UsdShade.Material`` with one ``UsdPreviewSurface`` ("PreviewSurface").
@@ -231,7 +232,9 @@ def define_material(
     ``diffuse_texture`` (an asset path, written as given) adds a ``UsdUVTexture``
     ("diffuseTexture", ``texture_scale`` = RGBA multiplier) read through a
     ``UsdPrimvarReader_float2`` ("stReader", varname ``st``) driving diffuseColor, and
-    opacity too when ``opacity_from_texture``.  ``custom_data`` goes under ``sa:``.
+    opacity too when ``opacity_from_texture``.  ``ior`` None authors none (with opacity
+    below 1: alpha blending, not glass); ``opacity_mode`` authors ``opacityMode``
+    ("transparent" or "presence").  ``custom_data`` goes under ``sa:``.
     """
     material = UsdShade.Material.Define(stage, path)
     shader = UsdShade.Shader.Define(stage, f"{path}/PreviewSurface")
@@ -241,8 +244,11 @@ def define_material(
         "roughness": (Sdf.ValueTypeNames.Float, float(roughness)),
         "metallic": (Sdf.ValueTypeNames.Float, float(metallic)),
         "opacity": (Sdf.ValueTypeNames.Float, float(opacity)),
-        "ior": (Sdf.ValueTypeNames.Float, float(ior)),
     }
+    if ior is not None:
+        inputs["ior"] = (Sdf.ValueTypeNames.Float, float(ior))
+    if opacity_mode is not None:
+        inputs["opacityMode"] = (Sdf.ValueTypeNames.Token, opacity_mode)
     if emissive is not None:
         inputs["emissiveColor"] = (Sdf.ValueTypeNames.Color3f, Gf.Vec3f(*_floats(emissive)))
     if opacity_threshold is not None:

@@ -21,6 +21,7 @@ import warp as wp
 
 from ...core.features import SceneFeatures, analyse_features
 from ...core.scene_gpu import (
+    FLAG_BLENDED,
     FLAG_CUTOUT,
     FLAG_REFRACTIVE,
     FLAG_SPECULAR_WORKFLOW,
@@ -57,7 +58,8 @@ def material_flags(m: Material) -> int:
     """The ``FLAG_*`` bits of a material (the host predicates kernels test as bits)."""
     bits = (
         (FLAG_SPECULAR_WORKFLOW, m.use_specular_workflow),
-        (FLAG_TRANSMISSIVE, m.is_transmissive),
+        (FLAG_TRANSMISSIVE, m.is_glass),
+        (FLAG_BLENDED, m.is_blended),
         (FLAG_REFRACTIVE, m.is_refractive),
         (FLAG_CUTOUT, m.is_cutout),
         (FLAG_VERTEX_COLOR, m.is_vertex_colored),

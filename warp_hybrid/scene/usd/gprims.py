@@ -14,6 +14,7 @@ from pxr import Usd, UsdGeom
 from .implicit import is_implicit, read_implicit_mesh
 from .meshes import LocalMesh, read_local_mesh
 from .subdivision import DEFAULT_LEVELS
+from .subdivision_level import LevelChooser
 from .validate import Diagnostics
 
 
@@ -30,7 +31,7 @@ def read_gprim(
     may_animate: bool = True,
     points: np.ndarray | None = None,
     points_vary: bool = False,
-    subdivision_levels: int = DEFAULT_LEVELS,
+    subdivision_levels: int | LevelChooser = DEFAULT_LEVELS,
 ) -> LocalMesh:
     """``prim`` (``is_drawn``) triangulated in its local space at ``time``.  For a mesh,
     ``points``, ``points_vary`` and ``subdivision_levels`` go to ``read_local_mesh``

@@ -45,7 +45,8 @@ instance proxies and share one triangulation per prototype mesh):
   dropped silently.
 
 Meshes that author a ``subdivisionScheme`` are refined (``subdivision``;
-``subdivision_levels``, default 1; unauthored, the USD fallback catmullClark, they stay
+``subdivision_levels``: by default chosen per mesh from its size on the ``screen``
+through the default camera, ``subdivision_level.AUTO``; unauthored, the USD fallback catmullClark, they stay
 polygon meshes with one warning).  Meshes bound to a Skeleton (``SkelBindingAPI``) are
 drawn with pxr's skinned points (``skel``); when the animation (or anything else the
 skinning reads) is time-sampled they vary over time like animated points.
@@ -92,6 +93,7 @@ from .skel import NOT_APPLIED, Skinner, Skinning
 from .stage import StageInfo, open_stage, read_stage_info, report_composition_errors
 from .stage_metadata import check_stage_metadata
 from .subdivision import DEFAULT_LEVELS
+from .subdivision_level import AUTO, DEFAULT_SCREEN, LevelChooser, Levels, check_levels, screen_chooser
 from .textures import ImageLibrary
 from .validate import Diagnostics, check_extent, validate_scene
 
@@ -251,18 +253,21 @@ class UsdSceneSource:
         path: str | os.PathLike,
         stage: Usd.Stage | None = None,
         strict: bool = False,
-        subdivision_levels: int = DEFAULT_LEVELS,
+        subdivision_levels: Levels = AUTO,
+        screen: tuple[int, int] = DEFAULT_SCREEN,
     ) -> None:
         """Open ``path`` (or wrap an already opened ``stage``, e.g. one converted from
         another format in memory; ``path`` then names it in messages).  ``strict``: a
         malformed mesh raises ``SceneError`` instead of being skipped with a warning.
         ``subdivision_levels``: how often meshes that author a subdivision scheme are
-        refined (0: drawn as their control cage)."""
-        if isinstance(subdivision_levels, bool) or not isinstance(subdivision_levels, int) or subdivision_levels < 0:
-            raise ValueError(f"subdivision_levels must be a whole number >= 0, not {subdivision_levels!r}")
+        refined (0: drawn as their control cage; ``AUTO``: per mesh, from its size on a
+        ``screen`` of (width, height) pixels, ``subdivision_level``)."""
+        self.subdivision_levels = check_levels(subdivision_levels)
+        if not (len(screen) == 2 and all(isinstance(v, int) and not isinstance(v, bool) and v > 0 for v in screen)):
+            raise ValueError(f"screen must be (width, height) in whole pixels > 0, not {screen!r}")
+        self.screen = (int(screen[0]), int(screen[1]))
         self.path = os.fspath(path)
         self.strict = strict
-        self.subdivision_levels = subdivision_levels
         self.diagnostics = Diagnostics(self.path)
         if stage is None:
             stage = open_stage(self.path, self.diagnostics)
@@ -278,6 +283,8 @@ class UsdSceneSource:
         self._local: dict[str, LocalMesh] = {}
         self._parts: dict[str, _Part] = {}
         self._framing: Camera | None = None
+        self._level_camera: Camera | None = None  # the camera AUTO subdivision levels are chosen for
+        self._levels: dict[str, int] = {}  # AUTO: the level chosen for each mesh source, kept
         self._origin: np.ndarray | None = None  # the local frame, chosen at the first evaluation
         self._frame: _Frame | None = None  # the last evaluation, which later times update
         # False while no used layer holds time samples and no prim uses value clips:
@@ -315,9 +322,11 @@ class UsdSceneSource:
         xcache = UsdGeom.XformCache(Usd.TimeCode(t))
         try:  # textures decode on worker threads meanwhile; always collect them
             trav = self._traverse(t, xcache)
+            cameras = [read_camera(p, t, self.diagnostics) for p in trav.cameras]
+            if self._level_camera is None and self.subdivision_levels == AUTO:
+                self._level_camera = cameras[0] if cameras else self._bounds_camera(t)
             parts = [self._part(item, t) for item in trav.items]
             lights, environment = read_lights(trav.lights, t, xcache, self.images, self.diagnostics)
-            cameras = [read_camera(p, t, self.diagnostics) for p in trav.cameras]
         finally:
             self.images.finish()
         if not cameras:
@@ -704,15 +713,41 @@ class UsdSceneSource:
             skin = item.skin
             points = None if skin is None else self._skinner.local_points(skin, time)
             varies = skin is not None and skin.varies
-            return read_gprim(
-                item.prim, time, self.path, self.diagnostics, self._may_animate, points, varies, self.subdivision_levels
-            )
+            levels = self._mesh_levels(item)
+            return read_gprim(item.prim, time, self.path, self.diagnostics, self._may_animate, points, varies, levels)
         except MalformedMeshError as exc:
             if self.strict:
                 raise
             self._skipped.add(item.source)
             self.diagnostics.warn(f"malformed mesh skipped, nothing of it is drawn: {exc.problem}", exc.prim)
             return empty_mesh(item.prim)
+
+    def _mesh_levels(self, item: _Item) -> int | LevelChooser:
+        """The subdivision levels of ``item``'s mesh: the fixed number, or under ``AUTO``
+        the level chosen for it once (a chooser that remembers it, asked only where the
+        mesh authors a scheme)."""
+        if self.subdivision_levels != AUTO:
+            return self.subdivision_levels
+        if item.source in self._levels:
+            return self._levels[item.source]
+        if self._level_camera is None:
+            return DEFAULT_LEVELS
+        choose = screen_chooser(item.matrices, self._level_camera, self.screen[0])
+
+        def remember(points: np.ndarray, counts: np.ndarray, indices: np.ndarray) -> int:
+            return self._levels.setdefault(item.source, choose(points, counts, indices))
+
+        return remember
+
+    def _bounds_camera(self, t: float) -> Camera | None:
+        """The framing camera of the stage's bounds as pxr computes them (the cameras
+        are chosen before any mesh is read), None for a stage with empty bounds."""
+        purposes = [UsdGeom.Tokens.default_, UsdGeom.Tokens.render, UsdGeom.Tokens.proxy]
+        cache = UsdGeom.BBoxCache(Usd.TimeCode(t), purposes, useExtentsHint=True)
+        box = cache.ComputeWorldBound(self.stage.GetPseudoRoot()).ComputeAlignedRange()
+        if box.IsEmpty():
+            return None
+        return framing_camera(np.array(box.GetMin()), np.array(box.GetMax()), self.info.up_axis)
 
     def _mesh_material(self, prim: Usd.Prim, material: UsdShade.Material | None, double_sided: bool) -> int:
         lib = self._materials
@@ -825,10 +860,14 @@ def _world_bounds(parts: list[_Part]) -> tuple[np.ndarray, np.ndarray]:
 
 
 def load_scene(
-    path: str | os.PathLike, time: float | None = None, strict: bool = False, subdivision_levels: int = DEFAULT_LEVELS
+    path: str | os.PathLike,
+    time: float | None = None,
+    strict: bool = False,
+    subdivision_levels: Levels = AUTO,
+    screen: tuple[int, int] = DEFAULT_SCREEN,
 ) -> Scene:
     """Load the USD file ``path`` as a ``Scene`` at ``time`` (default: the start of its
     time range, or 0).  Raises ``SceneError`` naming the file (and prim) for bad input;
     ``strict``: a malformed mesh too (else it is skipped with a warning).
-    ``subdivision_levels``: see ``UsdSceneSource``."""
-    return UsdSceneSource(path, strict=strict, subdivision_levels=subdivision_levels).scene_at(time)
+    ``subdivision_levels`` and ``screen``: see ``UsdSceneSource``."""
+    return UsdSceneSource(path, strict=strict, subdivision_levels=subdivision_levels, screen=screen).scene_at(time)

@@ -33,6 +33,12 @@ Material ``customData`` ``sa:thinWalled``, ``sa:attenuationColor`` and
 ``sa:attenuationDistance`` fill the volume fields.  ``doubleSided`` comes from the
 mesh, so one USD material can give two entries.
 
+Opacity below 1 with ``opacityThreshold`` 0 is one of two things.  Glass (tinted
+transmission with Fresnel; refraction unless thin-walled) where the material authors
+glass optics: an ``ior`` input, or ``sa:thinWalled`` / ``sa:attenuation*``.  Otherwise,
+and always under ``opacityMode = "presence"``, it is coverage: alpha blending
+(``Material.alpha_blended``), as Storm draws it.
+
 Parameters are read once per source (at the first time code evaluated).  Anything
 else (other shader types, displacement, clearcoat, occlusion, constant normals,
 textures on unsupported inputs) is reported once per material.
@@ -226,16 +232,22 @@ class MaterialLibrary:
         if m.opacity_texture >= 0:
             m.opacity_channel = opacity_channel
         m.opacity_threshold, _, _ = scalar("opacityThreshold", m.opacity_threshold, False)
-        m.ior, _, _ = scalar("ior", m.ior, False)
+        ior, _ = self._slot(shader, "ior", path, is_colour=False, texturable=False)
+        if ior is not None:
+            m.ior = float(ior)
         m.normal_texture = self._normal_map(shader, path, refs)
         self._warn_unsupported_inputs(shader, path)
-        self._read_custom_data(prim, m)
+        glass = self._read_custom_data(prim, m) or ior is not None
+        mode, _ = self._slot(shader, "opacityMode", path, is_colour=False, texturable=False)
+        m.alpha_blended = str(mode) == "presence" or not glass
         varnames = list(dict.fromkeys(r.varname for r in refs))
         if len(varnames) > 1:
             self.diag.warn(f"textures read several uv primvars {varnames}; only {varnames[0]!r} is used", path)
         return m, (varnames[0] if varnames else DEFAULT_UV_SET)
 
-    def _read_custom_data(self, prim: Usd.Prim, m: Material) -> None:
+    def _read_custom_data(self, prim: Usd.Prim, m: Material) -> bool:
+        """The glass optics under the shader prim's ``sa:`` custom data into ``m``;
+        whether any is authored."""
         thin = prim.GetCustomDataByKey("sa:thinWalled")
         if thin is not None:
             m.thin_walled = bool(thin)
@@ -245,6 +257,7 @@ class MaterialLibrary:
         dist = prim.GetCustomDataByKey("sa:attenuationDistance")
         if dist is not None:
             m.attenuation_distance = float(dist)
+        return thin is not None or att is not None or dist is not None
 
     def _normal_map(self, shader: UsdShade.Shader, path: str, refs: list[_TextureRef]) -> int:
         """The texture binding of the ``normal`` input (appended to ``refs``), or -1;

@@ -28,6 +28,7 @@ any interpolation.  Everything is numpy; no Python loop runs per triangle.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -35,6 +36,7 @@ from pxr import Sdf, Usd, UsdGeom
 
 from ...errors import SceneError
 from .subdivision import DEFAULT_LEVELS, Refinement, crease_normals, read_refinement
+from .subdivision_level import LevelChooser
 from .validate import Diagnostics, check_points, check_primvar, check_topology
 
 
@@ -347,7 +349,7 @@ def read_local_mesh(
     may_animate: bool = True,
     points: np.ndarray | None = None,
     points_vary: bool = False,
-    subdivision_levels: int = DEFAULT_LEVELS,
+    subdivision_levels: int | LevelChooser = DEFAULT_LEVELS,
 ) -> LocalMesh:
     """Read and triangulate the mesh ``prim`` at ``time`` in its local space.
 
@@ -355,7 +357,8 @@ def read_local_mesh(
     time-variability queries.  ``points`` (N, 3), when given, replace the authored
     ones (skinned points; ``points_vary``: they may change over time); normals are
     then computed.  A mesh that authors a subdivision scheme is refined
-    ``subdivision_levels`` times (``subdivision``; 0: its control cage).  Raises
+    ``subdivision_levels`` times (``subdivision``; 0: its control cage; a
+    ``LevelChooser``: the levels it gives for the control points and faces).  Raises
     ``SceneError`` (naming ``path`` and the prim) for NaN/Inf points, counts that do not
     sum to the index count, or indices outside the points; warns and falls back for
     degenerate faces, bad hole indices, ill-sized normals and bad crease data.
@@ -386,7 +389,10 @@ def read_local_mesh(
             diag.warn(f"holeIndices reach outside the {counts.size} faces; those entries are ignored", name)
             holes = holes[(holes >= 0) & (holes < counts.size)]
     control_points = len(points)
-    refinement = read_refinement(prim, t, authored, counts, fvi, control_points, diag, subdivision_levels)
+    levels = subdivision_levels
+    if callable(levels):  # asked only for a mesh that authors a scheme
+        levels = functools.partial(levels, points, counts, fvi)
+    refinement = read_refinement(prim, t, authored, counts, fvi, control_points, diag, levels)
     drawn_counts, drawn_fvi = counts, fvi
     if refinement is not None:
         points = refinement.vertex_values(points).astype(np.float32)

@@ -30,12 +30,10 @@ OpenSubdiv's ``Sdc`` (Pixar's reference for USD):
 The refinement is kept as one sparse linear operator per level (``Linear``), so the
 points and every primvar of a mesh are refined by the same weights.
 
-Level: meshes that author a scheme are refined ``levels`` times (``DEFAULT_LEVELS`` = 1;
-``UsdSceneSource(subdivision_levels=...)``), fewer when one mesh would exceed
-``MAX_REFINED_FACES`` (2**21) faces (with a warning).  The level is not chosen per
-screen size: the loader does not know the render resolution, and a level that followed
-the camera would change the topology from frame to frame (a BVH rebuild instead of a
-refit).  Meshes that leave ``subdivisionScheme`` unauthored (the USD fallback is
+Level: meshes that author a scheme are refined ``levels`` times, fewer when one mesh
+would exceed ``MAX_REFINED_FACES`` (2**21) faces (with a warning); the loader's default
+chooses the level per mesh from its size on the screen (``subdivision_level.AUTO``);
+``DEFAULT_LEVELS`` = 1 is the fixed level of a mesh read without a screen.  Meshes that leave ``subdivisionScheme`` unauthored (the USD fallback is
 catmullClark) are drawn as polygon meshes, as before and as usdview draws every mesh at
 its default complexity: refining them would change every scene that never asked for it.
 
@@ -45,6 +43,7 @@ still sharp after the last level (remaining sharpness >= 1) and along non-manifo
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -552,16 +551,20 @@ def read_refinement(
     indices: np.ndarray,
     n_points: int,
     diag: Diagnostics,
-    levels: int = DEFAULT_LEVELS,
+    levels: int | Callable[[], int] = DEFAULT_LEVELS,
 ) -> Refinement | None:
     """The refinement of the mesh ``prim`` (faces ``counts`` over ``indices``) when it
-    authors a subdivision scheme and ``levels`` > 0, else None (drawn as its control
-    cage).  Loop on non-triangles, an unknown scheme and a mesh over the face budget
+    authors a subdivision scheme and ``levels`` > 0 (a callable: asked only then), else
+    None (drawn as its control cage).  Loop on non-triangles, an unknown scheme and a mesh over the face budget
     are drawn as the cage with a warning naming the prim; bad crease or corner data is
     ignored with a warning."""
     name = str(prim.GetPath())
     scheme = authored_scheme(prim, authored, time)
-    if scheme is None or scheme == UsdGeom.Tokens.none or levels <= 0:
+    if scheme is None or scheme == UsdGeom.Tokens.none:
+        return None
+    if callable(levels):
+        levels = levels()
+    if levels <= 0:
         return None
     if scheme not in SCHEMES:
         diag.warn(f"subdivisionScheme {scheme!r} is not a USD scheme; rendered as its control cage", name)

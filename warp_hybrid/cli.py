@@ -294,8 +294,9 @@ def _add_budget_arguments(p: argparse.ArgumentParser, fps_default: float | None)
     )
 
 
-def _render_settings(args: argparse.Namespace) -> RenderSettings:
-    """``RenderSettings`` from the shared frame options."""
+def _render_settings(args: argparse.Namespace, cache_raster: bool = False) -> RenderSettings:
+    """``RenderSettings`` from the shared frame options (``cache_raster``: keep a still
+    view's raster layer across frames, the loop commands' ``--no-raster-cache``)."""
     defaults = RenderSettings()
     return RenderSettings(
         width=args.size[0],
@@ -322,6 +323,7 @@ def _render_settings(args: argparse.Namespace) -> RenderSettings:
         threads=args.threads,
         spp=args.spp,
         fovea_spp=args.fovea_spp,
+        cache_raster=cache_raster,
     )
 
 
@@ -346,8 +348,16 @@ def _loop_settings(args: argparse.Namespace, start: float, adaptive: bool, sacca
     )
 
 
-def _add_saccade_argument(p: argparse.ArgumentParser) -> None:
-    """``--saccade`` (``LoopSettings.saccade``)."""
+def _add_loop_arguments(p: argparse.ArgumentParser) -> None:
+    """What only the frame loops (replay, view) take: ``--saccade`` (``LoopSettings.saccade``)
+    and ``--no-raster-cache`` (``RenderSettings.cache_raster``)."""
+    p.add_argument(
+        "--no-raster-cache",
+        dest="raster_cache",
+        action="store_false",
+        help="draw the raster layer every frame even when the camera and the scene stand still (default: keep it "
+        "and redraw only the traced window; the images are the same)",
+    )
     p.add_argument(
         "--saccade",
         action="store_true",
@@ -465,7 +475,7 @@ def _add_replay_parser(sub: argparse._SubParsersAction) -> None:
     _add_scene_arguments(p)
     p.add_argument("--gaze", required=True, help="gaze source spec (trace:PATH, fixed:X,Y, webcam:..., cursor)")
     _add_budget_arguments(p, LoopSettings().fps)
-    _add_saccade_argument(p)
+    _add_loop_arguments(p)
     length = p.add_mutually_exclusive_group()
     length.add_argument("--frames", type=int, default=None, help="frames to render")
     length.add_argument(
@@ -539,7 +549,7 @@ def _cmd_replay(args: argparse.Namespace) -> int:
         {"--out": args.out, "--stats": args.stats, "--summary-json": args.summary_json, "--error-csv": args.error_csv},
         {"--frames-dir": args.frames_dir},
     )
-    settings = _render_settings(args)
+    settings = _render_settings(args, cache_raster=args.raster_cache)
     settings.validate()
     init_warp()
     source = _open_scene(args)
@@ -750,7 +760,7 @@ def _add_view_parser(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--gaze", default="cursor", help="cursor (default), webcam:INDEX[?calibration=FILE] or trace:PATH")
     _add_budget_arguments(p, LoopSettings().fps)
-    _add_saccade_argument(p)
+    _add_loop_arguments(p)
     _add_frame_arguments(
         p, "a fixed focus window (share of the screen) instead of the budget controller's (default: adaptive)", None
     )
@@ -780,7 +790,7 @@ def _cmd_view(args: argparse.Namespace) -> int:
     init_warp()
     source = _open_scene(args)
     settings = ViewSettings(
-        render=_render_settings(args),
+        render=_render_settings(args, cache_raster=args.raster_cache),
         loop=_loop_settings(args, 0.0, adaptive=args.window is None, saccade=args.saccade),
         camera_path=args.camera,
         gaze=args.gaze,

@@ -61,6 +61,8 @@ from .trace.fovea import FoveaSampler
 from .trace.guard import GuardedTrace
 
 PRIMARY_PATHS = ("raster", "raycast")
+#: The passes that draw the raster layer (kept across frames of a still view, ``cache_raster``).
+_RASTER_LAYER_PASSES = (PrimaryVisibility, DeferredLighting, AlphaLayer)
 MODES = ("raster", "full", "hybrid")
 #: The largest fixed exposure, in stops either way: 2^64 scales any radiance the scene
 #: holds without overflowing float32 (2^1000000 is not even a float64).
@@ -100,6 +102,12 @@ class RenderSettings:
     ``reuse``: temporal reuse (hybrid mode; ``compose.reuse``): where the window no
     longer traces, the last frames' traced values reprojected through the G-buffer,
     fading to the raster layer over a few frames; off by default.
+    ``cache_raster``: keep the raster layer (the G-buffer, its deferred lighting and the
+    layer behind blended surfaces) of the last frame when neither the camera nor the
+    scene changed since (a gaze replay over a still view), and draw only what depends on
+    the window (tracing, compose, post); the image is the same bit for bit.  Off by
+    default (every frame pays its whole cost, as benchmarks of one frame's cost need);
+    the replay and viewer commands turn it on.
     """
 
     width: int = 640
@@ -127,6 +135,7 @@ class RenderSettings:
     ring_step: int = RingSpec.step
     probes: bool = False
     reuse: bool = False
+    cache_raster: bool = False
 
     @property
     def ring_spec(self) -> RingSpec | None:
@@ -275,6 +284,7 @@ class Renderer:
         self.passes = self._make_passes()
         self.buffers = self._make_buffers(self.settings.width, self.settings.height)
         self._accumulator = SampleAccumulator(self.launcher)
+        self._still_view: tuple | None = None  # what the raster layer now in the buffers was drawn for
         self._set_scene()
 
     def _check_memory(self, width: int, height: int, scene: Scene, upload: Scene | None) -> None:
@@ -477,11 +487,16 @@ class Renderer:
             trace_deadline=trace_deadline if s.mode == "hybrid" else None,
             view=camera,
         )
+        key = self._still_view_key(frame, spp)
+        cached = key is not None and key == self._still_view
+        self._still_view = None  # until this frame is whole
         if spp == 1:
             for p in self.passes:
-                p.execute(frame)
+                if not (cached and isinstance(p, _RASTER_LAYER_PASSES)):
+                    p.execute(frame)
         else:
             self._render_samples(camera, frame, spp)
+        self._still_view = key
         with frame.timer.stage("readback"):
             image = np.array(frame.image.numpy(), copy=True)
             rays = frame.rays.counts() if frame.rays is not None else None
@@ -510,6 +525,7 @@ class Renderer:
             "stages_ms": dict(frame.timer.stages_ms),
             "frame_ms": frame.timer.total_ms,
             "exposure_ev": self._post.last_exposure_ev,
+            "raster_cached": cached,
         }
         if frame.region is not None and rays is not None:
             stats.update(self._trace_stats(frame, rays))
@@ -518,6 +534,18 @@ class Renderer:
             stats["guard"] = dataclasses.asdict(guard)
         out.stats = stats
         return out
+
+    def _still_view_key(self, frame: FrameContext, spp: int) -> tuple | None:
+        """What the raster layer of ``frame`` depends on (``RenderSettings.cache_raster``):
+        the device scene and what it holds (``content_version``: every update that changed
+        anything drawn), the buffers and the camera; None where the layer is not kept (off,
+        full mode, several samples per pixel)."""
+        s = self.settings
+        if not s.cache_raster or s.mode == "full" or spp > 1 or s.fovea_spp > 1:
+            return None
+        ds, c = self.device_scene, frame.camera
+        view = (*c.origin, *c.right, *c.up, *c.forward, c.tan_x, c.tan_y, c.width, c.height, c.near, c.far)
+        return (id(ds), ds.content_version, id(self.buffers), *view)
 
     def _render_samples(self, camera: Camera, frame: FrameContext, spp: int) -> None:
         """A supersampled frame: every pass but the post once per sample, each sub-frame's

@@ -8,7 +8,9 @@ rebuilding it, re-uploads lights, materials, textures and the dome when they cha
 re-analyses the features, and refuses clearly when the topology changed.
 ``geometry_version`` counts point updates and ``materials_version`` material uploads,
 so passes that keep derived data (the tracer's shadow meshes) know when to refit or
-rebuild theirs.
+rebuild theirs; ``content_version`` counts the updates that changed anything a frame
+draws (points, normals, colours, lights, materials, textures, the dome), so a renderer
+that keeps a still view's raster layer knows when it is stale.
 """
 
 from __future__ import annotations
@@ -215,6 +217,7 @@ class DeviceScene:
         self.device = wp.get_device(device)
         self.geometry_version = 0
         self.materials_version = 0
+        self.content_version = 0
         self.indirect = bool(indirect)
         with timer.stage("upload"):
             self.scene = scene
@@ -305,15 +308,19 @@ class DeviceScene:
                 f"the topology changed between time {old.time} and {scene.time} "
                 f"({old.triangle_count} -> {scene.triangle_count} triangles); build a new DeviceScene instead",
             )
+        changed = False
         if scene.points is not old.points and not np.array_equal(scene.points, old.points):
             self.points.assign(_f32(scene.points, 3))
             if self.mesh is not None:
                 self.mesh.refit()
             self.geometry_version += 1
+            changed = True
         if scene.corner_normals is not old.corner_normals:
             self.corner_normals.assign(_f32(scene.corner_normals, 3))
+            changed = True
         if scene.corner_colors is not old.corner_colors and not np.array_equal(scene.corner_colors, old.corner_colors):
             self.corner_colors = wp.array(_corner_colors(scene), dtype=wp.vec3, device=self.device)
+            changed = True
         self.scene = scene
         lights_changed = scene.lights != old.lights
         if lights_changed:
@@ -323,8 +330,12 @@ class DeviceScene:
             self._upload_materials(scene)
         if _texture_source(scene) != self._texture_source:
             self._upload_textures(scene)
+            changed = True
         if not same_dome(dome_source(scene), self._dome_source):
             self._upload_dome(scene)
+            changed = True
+        if changed or lights_changed or materials_changed:
+            self.content_version += 1
         # The indirect estimate follows the lights and the materials; points that only move
         # leave it as it was (an animation barely changes the surface area).
         if self.indirect and (lights_changed or materials_changed):

@@ -1,0 +1,105 @@
+"""``RenderSettings.cache_raster``: a still view keeps its raster layer across frames and
+redraws only what depends on the window, bit for bit the frames a renderer without the
+cache draws."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from warp_hybrid import Renderer, RenderSettings, open_scene_source
+from warp_hybrid.focus import FocusWindow
+from warp_hybrid.scene.model import Camera
+
+CORNELL = Path(__file__).resolve().parents[1] / "scenes" / "cornell_glass.usda"
+RASTER_STAGES = ("clear", "raster", "resolve", "surface", "lighting")
+
+
+def _scene(blended: bool = False):
+    scene = open_scene_source(CORNELL).scene_at(None)
+    if blended:  # its glass as alpha coverage: the layer behind it is drawn too
+        materials = [dataclasses.replace(m, alpha_blended=m.is_transmissive) for m in scene.materials]
+        scene = dataclasses.replace(scene, materials=materials)
+    return scene
+
+
+def _moved(camera: Camera, dx: float) -> Camera:
+    m = np.array(camera.cam_to_world, dtype=np.float64)
+    m[0, 3] += dx
+    return dataclasses.replace(camera, cam_to_world=m)
+
+
+def _settings(**kw) -> RenderSettings:
+    return RenderSettings(width=64, height=48, exposure_ev=None, threads=2, **kw)
+
+
+def _window(gx: float) -> FocusWindow:
+    return FocusWindow(gaze=(gx, 0.5), fraction=0.15)
+
+
+@pytest.mark.parametrize(
+    "extra",
+    [{}, {"shadow_maps": True, "shadow_map_size": 64, "reuse": True}, {"ring": True, "probes": True}],
+    ids=["plain", "maps+reuse", "ring+probes"],
+)
+@pytest.mark.parametrize("blended", [False, True])
+def test_a_still_view_keeps_its_raster_layer_and_changes_nothing(device: str, extra: dict, blended: bool) -> None:
+    """A sequence of frames (the gaze moving, then the camera, then the scene) drawn with
+    and without the cache: every frame's image, colour and visibility equal; the raster
+    stages are skipped exactly in the frames whose camera and scene stood still."""
+    scene = _scene(blended)
+    cam = scene.cameras[0]
+    moved_points = dataclasses.replace(scene, points=scene.points + np.float32(0.01))
+    steps = [
+        (cam, 0.3, None, False),  # the first frame draws everything
+        (cam, 0.6, None, True),  # the gaze moved: the raster layer is kept
+        (cam, 0.7, None, True),
+        (_moved(cam, 0.05), 0.7, None, False),  # the camera moved
+        (_moved(cam, 0.05), 0.4, None, True),
+        (_moved(cam, 0.05), 0.4, moved_points, False),  # the scene moved
+        (_moved(cam, 0.05), 0.5, None, True),
+    ]
+    with (
+        Renderer(scene, _settings(device=device, cache_raster=True, **extra)) as cached,
+        Renderer(scene, _settings(device=device, **extra)) as plain,
+    ):
+        for i, (camera, gx, update, expect_cached) in enumerate(steps):
+            if update is not None:
+                cached.update_scene(update)
+                plain.update_scene(update)
+            a = cached.render(camera, _window(gx))
+            b = plain.render(camera, _window(gx))
+            assert a.stats["raster_cached"] is expect_cached, i
+            assert b.stats["raster_cached"] is False
+            skipped = [s for s in RASTER_STAGES if s not in a.stats["stages_ms"]]
+            assert skipped == (list(RASTER_STAGES) if expect_cached else []), (i, skipped)
+            np.testing.assert_array_equal(a.image, b.image, err_msg=f"frame {i}")
+            np.testing.assert_array_equal(a.color, b.color, err_msg=f"frame {i}")
+            np.testing.assert_array_equal(a.visibility, b.visibility, err_msg=f"frame {i}")
+            np.testing.assert_array_equal(a.aovs()["depth"], b.aovs()["depth"], err_msg=f"frame {i}")
+
+
+@pytest.mark.parametrize("mode", ["raster", "full"])
+def test_the_cache_in_raster_and_full_modes(mode: str) -> None:
+    """Raster mode keeps its frame for a still view (the same image again); full mode has
+    no raster layer and draws every frame."""
+    scene = _scene()
+    with Renderer(scene, _settings(mode=mode, cache_raster=True)) as r:
+        first = r.render(scene.cameras[0])
+        again = r.render(scene.cameras[0])
+        assert again.stats["raster_cached"] is (mode == "raster")
+        np.testing.assert_array_equal(first.image, again.image)
+
+
+def test_a_resize_draws_the_raster_layer_again() -> None:
+    """New buffers (a resize) hold no raster layer to keep."""
+    scene = _scene()
+    with Renderer(scene, _settings(mode="raster", cache_raster=True)) as r:
+        r.render(scene.cameras[0])
+        r.resize(32, 24)
+        frame = r.render(scene.cameras[0])
+        assert frame.stats["raster_cached"] is False and frame.image.shape == (24, 32, 3)
+        assert r.render(scene.cameras[0]).stats["raster_cached"] is True

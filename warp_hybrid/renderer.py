@@ -489,6 +489,7 @@ class Renderer:
         )
         key = self._still_view_key(frame, spp)
         cached = key is not None and key == self._still_view
+        frame.raster_cached = cached
         self._still_view = None  # until this frame is whole
         if spp == 1:
             for p in self.passes:

@@ -61,7 +61,9 @@ class FrameContext:
     A supersampled frame runs its passes once per sample (sub-frame): ``camera``
     samples sub-frame ``sample_index``'s point in each pixel, and passes that keep
     per-frame totals (the ray tally) start them at sample 0 only.  ``view`` is the scene
-    camera ``camera`` was made from, for passes that sample other points in each pixel."""
+    camera ``camera`` was made from, for passes that sample other points in each pixel.
+    ``raster_cached``: the raster layer (and the G-buffer) are the previous frame's, kept
+    for a still view (``RenderSettings.cache_raster``)."""
 
     camera: CameraGPU
     timer: StageTimer
@@ -74,6 +76,7 @@ class FrameContext:
     stats: dict[str, Any] = field(default_factory=dict)
     sample_index: int = 0
     view: Camera | None = None
+    raster_cached: bool = False
 
     @property
     def gbuffer(self) -> GBuffer:

@@ -116,10 +116,19 @@ class PostProcess(RenderPass):
     def execute(self, frame: FrameContext) -> None:
         """Post-process ``frame``'s colour into ``frame.image`` (a device array), the
         automatic exposure metered on ``frame.buffers.metered`` at the G-buffer's hit
-        pixels."""
+        pixels (kept from the last frame where that is the raster layer and the frame
+        kept it, ``FrameContext.raster_cached``: the same layer meters the same EV)."""
         b = frame.buffers
+        keep = frame.raster_cached and b.metered is b.raster_color
         frame.image = self.process(
-            b.color, self.exposure_ev, self.tonemap, self.antialias, frame.timer, frame.gbuffer.triangle_id, b.metered
+            b.color,
+            self.exposure_ev,
+            self.tonemap,
+            self.antialias,
+            frame.timer,
+            frame.gbuffer.triangle_id,
+            b.metered,
+            keep_exposure=keep,
         )
 
     def process(
@@ -131,6 +140,7 @@ class PostProcess(RenderPass):
         timer: StageTimer,
         hit_mask: np.ndarray | wp.array | None = None,
         metered: wp.array | None = None,
+        keep_exposure: bool = False,
     ) -> wp.array:
         """Expose ``color`` ((H, W) vec3, linear) by ``2**exposure_ev`` (None: automatic,
         key 0.18 over the log-average luminance of ``metered``, default ``color``
@@ -140,14 +150,17 @@ class PostProcess(RenderPass):
         next call).
         ``hit_mask`` (H, W): a numpy bool array, or a Warp array on the device, bool or
         int32 ids (hit where >= 0, e.g. the G-buffer's ``triangle_id``).
-        The EV used stays on the device (``exposure``; ``last_exposure_ev`` reads it)."""
+        The EV used stays on the device (``exposure``; ``last_exposure_ev`` reads it);
+        ``keep_exposure``: an automatic exposure is the last call's, not metered again (the
+        caller knows ``metered`` and the mask are the last call's)."""
         if tonemap not in TONEMAPS:
             raise ValueError(f"unknown tone mapping {tonemap!r}; choose one of {', '.join(TONEMAPS)}")
         h, w = int(color.shape[0]), int(color.shape[1])
         buffers = self._targets(h, w)
         with timer.stage("tonemap"):
             if exposure_ev is None:
-                self.auto_exposure(color if metered is None else metered, hit_mask)
+                if not keep_exposure:
+                    self.auto_exposure(color if metered is None else metered, hit_mask)
             else:
                 self.set_exposure(exposure_ev)
             inputs = [color, self._exposure, self._encoder, buffers["ldr"], self._luma_lut, buffers["luma"]]

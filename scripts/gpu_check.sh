@@ -3,7 +3,7 @@
 #   bash scripts/gpu_check.sh            # logs to $OUT (the device tool's folder) or ./out/gpu_check
 # 1. the whole test suite on the CPU and on cuda:0 (the device fixture runs every device test on both);
 # 2. the demo scene rendered in every mode on cuda:0, compared with the CPU image (mean absolute 8-bit error);
-# 3. a 2 s budgeted replay on cuda:0 with its summary;
+# 3. a 2 s budgeted replay on cuda:0 with its summary, and one with every issue-15 switch on;
 # 4. the raster, trace and budget benchmarks on cuda:0 for two shared scenes (where the shared scenes are
 #    at hand: WARP_HYBRID_SHARED_SCENES or ../shared/scenes), one table each, in bench.txt.
 set -uo pipefail
@@ -27,6 +27,9 @@ PY
 done
 .venv/bin/warp-hybrid replay scenes/cornell_glass.usda --gaze trace:scenes/traces/demo_gaze.csv --fps 30 \
   --duration 2 --device cuda:0 --out "$LOG/replay.mp4" --stats "$LOG/replay.csv" 2>&1 | tee "$LOG/replay.txt" | tail -6
+.venv/bin/warp-hybrid replay scenes/cornell_glass.usda --gaze trace:scenes/traces/demo_gaze.csv --fps 30 \
+  --duration 2 --device cuda:0 --ring --reuse --probes --shadow-maps --saccade --out "$LOG/replay_switches.mp4" \
+  --stats "$LOG/replay_switches.csv" 2>&1 | tee "$LOG/replay_switches.txt" | tail -6
 SCENES="${WARP_HYBRID_SHARED_SCENES:-../shared/scenes}"
 if [ -f "$SCENES/manifest.json" ]; then
   for bench in bench_raster bench_trace bench_budget; do

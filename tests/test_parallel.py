@@ -43,6 +43,19 @@ def test_launch_pixels_covers_each_pixel_once(device: str, threads: int, height:
     np.testing.assert_array_equal(item_cols.numpy(), np.full((height, width), expected_cols, np.int32))
 
 
+@pytest.mark.parametrize("threads", [1, 2])
+@pytest.mark.parametrize("rows", [(0, 48), (5, 6), (17, 40), (-3, 9), (30, 99), (20, 20)])
+def test_launch_pixels_covers_only_the_rows_asked(device: str, threads: int, rows: tuple[int, int]) -> None:
+    height, width = 48, 9
+    out = wp.zeros((height, width), dtype=wp.int32, device=device)
+    item_cols = wp.zeros((height, width), dtype=wp.int32, device=device)
+    with Launcher(device, threads) as launcher:
+        launcher.launch_pixels(_count_pixels, height, width, [out, item_cols], rows=rows)
+    expected = np.zeros((height, width), np.int32)
+    expected[max(rows[0], 0) : min(rows[1], height)] = 1
+    np.testing.assert_array_equal(out.numpy(), expected)
+
+
 def test_launch_pixels_skips_empty_images(device: str) -> None:
     out = wp.zeros((1, 1), dtype=wp.int32, device=device)
     with Launcher(device, 2) as launcher:

@@ -117,7 +117,9 @@ class Launcher:
         futures = [self._pool.submit(piece, k, n) for k in range(n)]
         return [f.result() for f in futures]
 
-    def launch_pixels(self, kernel: wp.Kernel, height: int, width: int, inputs: Sequence[Any]) -> None:
+    def launch_pixels(
+        self, kernel: wp.Kernel, height: int, width: int, inputs: Sequence[Any], rows: tuple[int, int] | None = None
+    ) -> None:
         """Launch a per-pixel kernel in the shape this device wants, from one source.
 
         The kernel's last three inputs must be ``row0: int, row_step: int, cols: int``;
@@ -125,20 +127,23 @@ class Launcher:
         columns ``c * cols`` up to ``min((c + 1) * cols, width)``.  On the CPU an item is a
         whole row (``cols = width``; the big struct arguments are copied once per row,
         not per pixel) and the rows go out in bands (module docstring); on CUDA an item
-        is one pixel (``cols = 1``), one thread each.
+        is one pixel (``cols = 1``), one thread each.  ``rows`` (first, stop): only those
+        rows of the ``height`` (default: all of them).
         """
-        if height <= 0 or width <= 0:
+        first, stop = (0, height) if rows is None else (max(0, rows[0]), min(height, rows[1]))
+        count = stop - first
+        if count <= 0 or width <= 0:
             return
         self.ensure_loaded(kernel)
         if self.device.is_cuda:
-            self.launch(kernel, 0, (height, width), [*inputs, 0, 1, 1])
+            self.launch(kernel, 0, (count, width), [*inputs, first, 1, 1])
             return
 
         def launch_band(k: int, bands: int, slot: int) -> None:
-            row0, rows = band(k, bands, height)
-            self.launch(kernel, slot, (rows, 1), [*inputs, row0, 1, width], first=k == 0)
+            row0, band_rows = band(k, bands, count)
+            self.launch(kernel, slot, (band_rows, 1), [*inputs, first + row0, 1, width], first=k == 0)
 
-        self.share(launch_band, band_count(height, self.threads, MIN_BAND_ROWS))
+        self.share(launch_band, band_count(count, self.threads, MIN_BAND_ROWS))
 
     def launch_items(self, kernel: wp.Kernel, count: int, inputs: Sequence[Any]) -> None:
         """Launch a 1-D kernel over ``count`` items split across threads.
@@ -159,13 +164,17 @@ class Launcher:
 
         self.share(launch_band, band_count(count, self.threads, MIN_BAND_ITEMS))
 
-    def launch_slots(self, kernel: wp.Kernel, count: int, inputs: Sequence[Any]) -> None:
+    def launch_slots(
+        self, kernel: wp.Kernel, count: int, inputs: Sequence[Any], min_band_items: int = MIN_BAND_ITEMS
+    ) -> None:
         """Launch a 1-D kernel that accumulates per thread: the last three inputs must be
         ``slot: int, start: int, step: int``.  On the CPU the items go out in bands like
-        ``launch_items``'s, and each band adds into the ``slot`` of the thread that runs
-        it (0 .. threads - 1), so no two threads ever add to the same slot (Warp's CPU
-        atomics are plain read-modify-writes).  On CUDA one launch (slot 0) covers every
-        item and the adds are atomic."""
+        ``launch_items``'s (none under ``min_band_items``: a kernel that does a few ns of
+        work per item is cut no finer than one band per thread with a large one), and
+        each band adds into the ``slot`` of the thread that runs it (0 .. threads - 1),
+        so no two threads ever add to the same slot (Warp's CPU atomics are plain
+        read-modify-writes).  On CUDA one launch (slot 0) covers every item and the adds
+        are atomic."""
         if count <= 0:
             return
         self.ensure_loaded(kernel)
@@ -177,7 +186,7 @@ class Launcher:
             start, items = band(k, bands, count)
             self.launch(kernel, slot, items, [*inputs, slot, start, 1], first=k == 0)
 
-        self.share(launch_band, band_count(count, self.threads, MIN_BAND_ITEMS))
+        self.share(launch_band, band_count(count, self.threads, min_band_items))
 
     def share(self, launch_band: Callable[[int, int, int], None], bands: int) -> None:
         """Run ``launch_band(k, bands, slot)`` for every band k, each thread (``slot``,

@@ -37,6 +37,7 @@ from .core.camera import make_camera_gpu
 from .core.features import analyse_features
 from .core.gbuffer import GBuffer
 from .core.passes import FrameBuffers, FrameContext, RenderPass
+from .core.rows import NO_ROWS
 from .errors import ArgumentTypeError, RenderSettingsError
 from .field_types import check_field_types
 from .focus import SHAPES, FocusRegionBuilder, FocusWindow
@@ -490,6 +491,7 @@ class Renderer:
         key = self._still_view_key(frame, spp)
         cached = key is not None and key == self._still_view
         frame.raster_cached = cached
+        frame.changed_rows = NO_ROWS if cached else None
         self._still_view = None  # until this frame is whole
         if spp == 1:
             for p in self.passes:
@@ -568,6 +570,7 @@ class Renderer:
         self._primary.execute(frame)
         with frame.timer.stage("accumulate"):
             self._accumulator.average(spp, self.buffers.color, self.buffers.visibility)
+        self.buffers.color_rows = None
         post.execute(frame)
 
     @property

@@ -10,7 +10,9 @@ The kernel follows ``Launcher.launch_pixels`` (last inputs ``row0, row_step, col
 one launch item per row on the CPU, one thread per pixel on CUDA.  It runs over the
 rows the weights can be non-zero in (the focus window's bounding rows, its ring's with
 ``--ring``); the other rows of ``out`` are ``raster`` copied (a memory copy, the same
-values the blend gives at weight 0).
+values the blend gives at weight 0), only where ``out`` may not hold it already: where
+the raster layer was kept from the last frame, the rows the last blend wrote
+(``FrameBuffers.color_rows``).
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ from __future__ import annotations
 import warp as wp
 
 from ..core.passes import FrameContext, RenderPass
+from ..core.rows import RowSpan, span_clip, span_minus, span_union
 from ..parallel import Launcher
 from ..timing import StageTimer
 
@@ -60,7 +63,12 @@ class Compositor(RenderPass):
         weights into the frame's colour."""
         assert frame.region is not None, "the focus pass runs first"
         b = frame.buffers
-        self.blend(b.raster_color, b.traced_color, frame.region.weight, b.color, frame.timer, frame.region.rows)
+        rows = span_clip(frame.region.rows, b.height)
+        stale = b.color_rows if frame.raster_cached else None
+        b.color_rows = None  # until the blend is done
+        self.blend(b.raster_color, b.traced_color, frame.region.weight, b.color, frame.timer, rows, stale)
+        b.color_rows = rows
+        frame.changed_rows = span_union(span_union(frame.changed_rows, stale), rows)
 
     def blend(
         self,
@@ -69,13 +77,16 @@ class Compositor(RenderPass):
         weight: wp.array,
         out: wp.array,
         timer: StageTimer,
-        rows: tuple[int, int] | None = None,
+        rows: RowSpan | None = None,
+        stale_rows: RowSpan | None = None,
     ) -> None:
         """Write ``raster + weight * (traced - raster)`` into ``out`` (stage ``"compose"``).
 
         All arrays are (H, W): ``raster``, ``traced`` and ``out`` vec3, ``weight``
         float32; ``out`` may be ``raster``.  ``rows`` (first, stop): the only rows
-        where ``weight`` may be > 0 (default: all); elsewhere ``out`` is ``raster``."""
+        where ``weight`` may be > 0 (default: all); elsewhere ``out`` is ``raster``.
+        ``stale_rows``: the only rows where ``out`` may differ from ``raster`` before the
+        call (default: any row), the only ones outside ``rows`` copied."""
         shape = tuple(raster.shape)
         if len(shape) != 2:
             raise ValueError(f"raster must be an (H, W) image, got shape {shape}")
@@ -87,9 +98,9 @@ class Compositor(RenderPass):
         stop = max(stop, first)
         with timer.stage("compose"):
             if out.ptr != raster.ptr:
-                for a, b in ((0, first), (stop, h)):
-                    if b > a:
-                        wp.copy(out, raster, dest_offset=a * w, src_offset=a * w, count=(b - a) * w)
+                stale = (0, h) if stale_rows is None else span_clip(stale_rows, h)
+                for a, b in span_minus(stale, (first, stop)):
+                    wp.copy(out, raster, dest_offset=a * w, src_offset=a * w, count=(b - a) * w)
             if stop > first:
                 views = [array[first:stop] for array in (raster, traced, weight, out)]
                 self.launcher.launch_pixels(blend_pixels, stop - first, w, views)

@@ -181,6 +181,7 @@ class TemporalReuse(RenderPass):
                 nxt.age,
             ]
             self.launcher.launch_pixels(reuse_pixels, h, w, inputs)
+            b.color_rows = frame.changed_rows = None  # reused pixels may lie anywhere
             wp.copy(nxt.depth, b.gbuffer.depth)
             wp.copy(nxt.normal, b.gbuffer.normal)
             nxt.gpu.cam = frame.camera

@@ -19,6 +19,7 @@ import warp as wp
 from ..timing import StageTimer
 from .camera import CameraGPU
 from .gbuffer import GBuffer
+from .rows import RowSpan
 
 if TYPE_CHECKING:
     from ..focus import FocusRegion, FocusWindow
@@ -32,7 +33,9 @@ class FrameBuffers:
     the raster and traced radiance layers, the composed ``color`` (linear radiance
     before exposure), ``metered`` (the layer automatic exposure is metered on: ``color``
     unless the renderer says otherwise) and the per-light ``visibility`` AOV
-    (transmittance luminance, NaN where not traced)."""
+    (transmittance luminance, NaN where not traced).  ``color_rows`` says what ``color``
+    holds between frames: the only rows where it may differ from ``raster_color``
+    (None: any row; set by the passes that write ``color``)."""
 
     def __init__(self, width: int, height: int, lights: int, device: wp.context.Device) -> None:
         """Allocate every buffer for ``width`` x ``height`` and ``lights`` lights."""
@@ -45,6 +48,7 @@ class FrameBuffers:
         self.traced_color = wp.zeros(shape, dtype=wp.vec3, device=device)
         self.color = wp.zeros(shape, dtype=wp.vec3, device=device)
         self.metered = self.color
+        self.color_rows: RowSpan | None = None
         self.visibility = wp.full((height, width, lights), value=float("nan"), dtype=wp.float32, device=device)
 
     def fits(self, width: int, height: int, lights: int) -> bool:
@@ -63,7 +67,9 @@ class FrameContext:
     per-frame totals (the ray tally) start them at sample 0 only.  ``view`` is the scene
     camera ``camera`` was made from, for passes that sample other points in each pixel.
     ``raster_cached``: the raster layer (and the G-buffer) are the previous frame's, kept
-    for a still view (``RenderSettings.cache_raster``)."""
+    for a still view (``RenderSettings.cache_raster``).  ``changed_rows``: the only rows
+    of ``buffers.color`` that can differ from the previous frame's (None: any row): none
+    where the raster layer was kept, then widened by each pass that writes ``color``."""
 
     camera: CameraGPU
     timer: StageTimer
@@ -77,6 +83,7 @@ class FrameContext:
     sample_index: int = 0
     view: Camera | None = None
     raster_cached: bool = False
+    changed_rows: RowSpan | None = None
 
     @property
     def gbuffer(self) -> GBuffer:

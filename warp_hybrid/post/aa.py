@@ -12,8 +12,8 @@ the edge tests read one float per texel.  Per pixel:
    flat image is untouched, bit for bit).
 2. Edge orientation from the 3x3 neighbourhood's second differences; the side with the
    steeper gradient is the other half of the edge.
-3. Search along the edge (bilinear luma on the edge boundary, 12 steps of 1, 1, 1, 1,
-   1, 1.5, 2, 2, 2, 2, 4, 8 pixels) until the luma departs from the edge's mean by a
+3. Search along the edge (bilinear luma on the edge boundary, ``SEARCH_STEP_PX``: 12
+   steps of 1, 1, 1, 1, 1, 1.5, 2, 2, 2, 2, 4, 8 pixels) until the luma departs from the edge's mean by a
    quarter of the local gradient on both ends.  The search filters the luma buffer
    itself, as FXAA filters its luma channel: luma is linear in the codes, so this is
    the luma of the filtered colour up to float rounding, at one float per tap instead
@@ -30,13 +30,23 @@ keeps about 80% of its encoded energy instead of about 69%.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import warp as wp
 
 EDGE_THRESHOLD = wp.constant(0.166)
 EDGE_THRESHOLD_MIN = wp.constant(0.0833)
 SUBPIX = wp.constant(0.5)
-SEARCH_STEPS = wp.constant(12)
+#: The edge search's steps (FXAA 3.11 quality preset 39): the first tap 1 px from the
+#: boundary point, then one step per iteration.
+SEARCH_STEP_PX = (1.0, 1.0, 1.0, 1.0, 1.0, 1.5, 2.0, 2.0, 2.0, 2.0, 4.0, 8.0)
+SEARCH_STEPS = wp.constant(len(SEARCH_STEP_PX))
+_STEP_PX = wp.constant(wp.types.vector(len(SEARCH_STEP_PX), dtype=float)(*SEARCH_STEP_PX))
+#: How far (rows or columns) FXAA reads from the pixel it writes: the search's last
+#: bilinear tap, half a pixel past its full length (the 3x3 test and the final colour
+#: tap stay within 1).  A pixel's output changes only if its input changed this close.
+FXAA_REACH_PX = max(1, math.ceil(sum(SEARCH_STEP_PX) + 0.5))
 INV_255 = wp.constant(1.0 / 255.0)
 LUMA_WEIGHTS = (0.299, 0.587, 0.114)  # Rec. 601, as FXAA
 
@@ -119,16 +129,8 @@ def _bilinear_luma(luma: wp.array2d(dtype=float), px: float, py: float) -> float
 
 @wp.func(inline=True)
 def _search_step(i: int) -> float:
-    """FXAA quality preset 39 step lengths (pixels) for search iteration i >= 1."""
-    if i < 5:
-        return 1.0
-    if i == 5:
-        return 1.5
-    if i < 10:
-        return 2.0
-    if i == 10:
-        return 4.0
-    return 8.0
+    """The search's step length (pixels) at iteration i >= 1 (``SEARCH_STEP_PX``)."""
+    return _STEP_PX[i]
 
 
 @wp.func

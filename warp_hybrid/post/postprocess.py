@@ -3,6 +3,14 @@
 Every pass runs on the device (``Launcher.launch_pixels``; the exposure kernels one
 thread each), and the frame's exposure stays in device memory between them: nothing
 is read back before the finished image.
+
+A caller that knows which rows of the colour changed since the last call
+(``changed_rows``: a still view whose raster layer was kept, where only the focus
+window's rows move) gets those rows redrawn only: tone mapping over them, FXAA over
+them widened by ``FXAA_REACH_PX`` (the farthest FXAA reads), the rest of the image kept
+from the last call, which is the same bit for bit.  This holds only where the last call
+drew the same colour buffer with the same settings and exposure; otherwise, and for
+``changed_rows`` None, the whole image is drawn.
 """
 
 from __future__ import annotations
@@ -11,9 +19,10 @@ import numpy as np
 import warp as wp
 
 from ..core.passes import FrameContext, RenderPass
+from ..core.rows import NO_ROWS, RowSpan, span_clip, span_grow
 from ..parallel import Launcher
 from ..timing import StageTimer
-from .aa import luma_table
+from .aa import FXAA_REACH_PX, luma_table
 from .color import make_srgb8_encoder
 from .exposure import Exposure
 from .kernels import (
@@ -47,6 +56,9 @@ class PostProcess(RenderPass):
         self._encoder = make_srgb8_encoder(launcher.device)
         self._luma_lut = wp.array(luma_table(), dtype=wp.vec3, device=launcher.device)
         self._exposure = wp.zeros(1, dtype=Exposure, device=launcher.device)  # EV 0 until a frame runs
+        # what the last call drew: its colour array (held, so no other array takes its
+        # place), its 8-bit target and its settings (see ``process``)
+        self._drawn: tuple | None = None
         launcher.ensure_loaded(fxaa_pixels)  # compiles the post module (all its kernels) up front
 
     @property
@@ -93,6 +105,7 @@ class PostProcess(RenderPass):
         of ``hit_mask``'s pixels, or of all non-black pixels), all on the device: the
         logs summed per row, then the rows and the EV in one thread.  Nothing is
         read back (``last_exposure_ev`` does that)."""
+        self._drawn = None
         h, w = int(color.shape[0]), int(color.shape[1])
         buffers = self._targets(h, w)
         kind, mask = self._mask(hit_mask, (h, w))
@@ -110,6 +123,7 @@ class PostProcess(RenderPass):
 
     def set_exposure(self, ev: float) -> None:
         """Set ``exposure`` to the fixed ``ev`` (scale ``2**ev`` from the host)."""
+        self._drawn = None
         ev = float(ev)
         wp.launch(fixed_exposure, dim=1, inputs=[ev, 2.0**ev, self._exposure], device=self.launcher.device)
 
@@ -129,6 +143,7 @@ class PostProcess(RenderPass):
             frame.gbuffer.triangle_id,
             b.metered,
             keep_exposure=keep,
+            changed_rows=frame.changed_rows,
         )
 
     def process(
@@ -141,6 +156,7 @@ class PostProcess(RenderPass):
         hit_mask: np.ndarray | wp.array | None = None,
         metered: wp.array | None = None,
         keep_exposure: bool = False,
+        changed_rows: RowSpan | None = None,
     ) -> wp.array:
         """Expose ``color`` ((H, W) vec3, linear) by ``2**exposure_ev`` (None: automatic,
         key 0.18 over the log-average luminance of ``metered``, default ``color``
@@ -152,11 +168,28 @@ class PostProcess(RenderPass):
         int32 ids (hit where >= 0, e.g. the G-buffer's ``triangle_id``).
         The EV used stays on the device (``exposure``; ``last_exposure_ev`` reads it);
         ``keep_exposure``: an automatic exposure is the last call's, not metered again (the
-        caller knows ``metered`` and the mask are the last call's)."""
+        caller knows ``metered`` and the mask are the last call's).
+        ``changed_rows`` (first, stop): the only rows of ``color`` that can differ from the
+        last call's ``color`` (module docstring; None: any row)."""
         if tonemap not in TONEMAPS:
             raise ValueError(f"unknown tone mapping {tonemap!r}; choose one of {', '.join(TONEMAPS)}")
         h, w = int(color.shape[0]), int(color.shape[1])
         buffers = self._targets(h, w)
+        # what this call draws: the same as the last call's, with the same EV (a fixed one,
+        # or the automatic one kept), means only ``changed_rows`` can change
+        drawn = (color, buffers["ldr"], tonemap, aa, exposure_ev)
+        same_exposure = exposure_ev is not None or keep_exposure
+        rows = (0, h)
+        last = self._drawn
+        if (
+            changed_rows is not None
+            and same_exposure
+            and last is not None
+            and all(a is b for a, b in zip(drawn[:2], last[:2]))
+            and drawn[2:] == last[2:]
+        ):
+            rows = span_clip(changed_rows, h)
+        self._drawn = None  # until this call is done
         with timer.stage("tonemap"):
             if exposure_ev is None:
                 if not keep_exposure:
@@ -164,10 +197,22 @@ class PostProcess(RenderPass):
             else:
                 self.set_exposure(exposure_ev)
             inputs = [color, self._exposure, self._encoder, buffers["ldr"], self._luma_lut, buffers["luma"]]
-            self.launcher.launch_pixels(TONEMAP_KERNELS[(tonemap, aa)], h, w, inputs)
+            self.launcher.launch_pixels(TONEMAP_KERNELS[(tonemap, aa)], h, w, inputs, rows=rows)
+        self._drawn = drawn
         if not aa:
             return buffers["ldr"]
         with timer.stage("aa"):
-            wp.copy(buffers["smoothed"], buffers["ldr"])
-            self.launcher.launch_pixels(fxaa_pixels, h, w, [buffers["ldr"], buffers["luma"], buffers["smoothed"]])
+            smoothed = span_grow(rows, FXAA_REACH_PX, h)
+            if smoothed != NO_ROWS:
+                first, stop = smoothed
+                count = (stop - first) * w * 3
+                wp.copy(
+                    buffers["smoothed"],
+                    buffers["ldr"],
+                    dest_offset=first * w * 3,
+                    src_offset=first * w * 3,
+                    count=count,
+                )
+                inputs = [buffers["ldr"], buffers["luma"], buffers["smoothed"]]
+                self.launcher.launch_pixels(fxaa_pixels, h, w, inputs, rows=smoothed)
         return buffers["smoothed"]

@@ -23,6 +23,11 @@ TILE_PX = wp.constant(32)
 TALLY_COLUMNS = ("pixels", "shadow", "reflection", "refraction")
 
 
+#: The fewest items a band of the tally holds on the CPU: an item costs a few ns, a
+#: launch tens of us, so a list of up to this many goes out in one band per thread.
+TALLY_BAND_ITEMS = 1 << 16
+
+
 @wp.kernel
 def tally_tiles(
     pixels: wp.array(dtype=wp.int32),

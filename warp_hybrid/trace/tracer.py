@@ -35,7 +35,7 @@ from .occluders import Occluders
 from .path import COUNT_COLUMNS, MAX_DEPTH, path_kernel
 from .rays import TraceFrame, TraceParams
 from .shadows import shadow_kernel
-from .tally import RayTally, tally_tiles
+from .tally import TALLY_BAND_ITEMS, RayTally, tally_tiles
 from .variant import TraceVariant
 
 
@@ -252,7 +252,10 @@ class Tracer(RenderPass):
         with timer.stage("trace_secondary"):
             self.launcher.launch_items(self.path_kernel, count, [scene.gpu, scene.ambient, tf, color_out])
         self.launcher.launch_slots(
-            tally_tiles, count, [pixels, counts, gbuffer.width, gbuffer.height, tally.tiles_x, tally.table]
+            tally_tiles,
+            count,
+            [pixels, counts, gbuffer.width, gbuffer.height, tally.tiles_x, tally.table],
+            min_band_items=TALLY_BAND_ITEMS,
         )
         tally.items += count
         return tally

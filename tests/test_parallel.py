@@ -91,6 +91,33 @@ def test_band_count_follows_the_threads_and_the_minimum_band() -> None:
     assert band_count(100, 2, 256) == 2
 
 
+@pytest.mark.parametrize("threads", [1, 2, 3])
+@pytest.mark.parametrize("stop_at", [0, 1, 7, 40, None])
+def test_share_until_runs_a_prefix_and_asks_in_band_order(threads: int, stop_at: int | None) -> None:
+    """``proceed`` is asked band by band in order; every band before the first refusal
+    runs exactly once, none after it, and the count returned is that prefix's length."""
+    bands = 40
+    ran: list[int] = []
+    asked: list[int] = []
+    lock = threading.Lock()
+
+    def job(k: int, slot: int) -> None:
+        assert 0 <= slot < threads
+        with lock:
+            ran.append(k)
+
+    def proceed(k: int) -> bool:
+        asked.append(k)  # called under the launcher's lock
+        return stop_at is None or k < stop_at
+
+    with Launcher("cpu", threads) as launcher:
+        n = launcher.share_until(job, bands, proceed)
+    expected = bands if stop_at is None else min(stop_at, bands)
+    assert n == expected
+    assert sorted(ran) == list(range(expected))
+    assert asked == list(range(expected + (0 if stop_at is None or stop_at >= bands else 1)))
+
+
 def test_a_free_thread_takes_the_bands_a_busy_one_cannot() -> None:
     """Thread 0's first band blocks until thread 1 has run every other band: thread 0
     runs at most that one band, and every band runs once."""

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import itertools
 import os
+import threading
 import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
@@ -145,11 +146,14 @@ class Launcher:
 
         self.share(launch_band, band_count(count, self.threads, MIN_BAND_ROWS))
 
-    def launch_items(self, kernel: wp.Kernel, count: int, inputs: Sequence[Any]) -> None:
+    def launch_items(
+        self, kernel: wp.Kernel, count: int, inputs: Sequence[Any], min_band_items: int = MIN_BAND_ITEMS
+    ) -> None:
         """Launch a 1-D kernel over ``count`` items split across threads.
 
         The kernel's last two inputs must be ``start: int, step: int``; thread ``tid``
-        handles item ``start + tid * step`` (on the CPU, bands of consecutive items).
+        handles item ``start + tid * step`` (on the CPU, bands of consecutive items, none
+        under ``min_band_items``; see ``launch_slots``).
         """
         if count <= 0:
             return
@@ -162,7 +166,7 @@ class Launcher:
             start, items = band(k, bands, count)
             self.launch(kernel, slot, items, [*inputs, start, 1], first=k == 0)
 
-        self.share(launch_band, band_count(count, self.threads, MIN_BAND_ITEMS))
+        self.share(launch_band, band_count(count, self.threads, min_band_items))
 
     def launch_slots(
         self, kernel: wp.Kernel, count: int, inputs: Sequence[Any], min_band_items: int = MIN_BAND_ITEMS
@@ -202,6 +206,33 @@ class Launcher:
                 launch_band(k, bands, slot)
 
         self._map(worker, min(self.threads, bands))
+
+    def share_until(self, job: Callable[[int, int], None], bands: int, proceed: Callable[[int], bool]) -> int:
+        """Run ``job(k, slot)`` for the bands k = 0, 1, ... in order, each thread (``slot``)
+        taking the next band left; before a band is taken ``proceed(k)`` is asked, under a
+        lock and so in band order, and the first False stops every thread before band k.
+        Returns how many bands ran: always bands 0 .. n - 1, a prefix (a band taken is
+        always run)."""
+        lock = threading.Lock()
+        state = {"next": 0, "stopped": False}
+
+        def take() -> int | None:
+            with lock:
+                k = state["next"]
+                if state["stopped"] or k >= bands:
+                    return None
+                if not proceed(k):
+                    state["stopped"] = True
+                    return None
+                state["next"] = k + 1
+                return k
+
+        def worker(slot: int, _workers: int) -> None:
+            while (k := take()) is not None:
+                job(k, slot)
+
+        self._map(worker, min(self.threads, bands))
+        return state["next"]
 
     def launch(self, kernel: wp.Kernel, slot: int, dim: Any, inputs: list[Any], first: bool = True) -> None:
         """One ``wp.launch`` on this thread (a band of a pass, on thread ``slot``;

@@ -49,6 +49,10 @@ class StageTimer:
             elapsed = (self.now() - start) * 1000.0
             self.stages_ms[name] = self.stages_ms.get(name, 0.0) + elapsed
 
+    def add(self, name: str, ms: float) -> None:
+        """Add ``ms`` to ``stages_ms[name]`` (a stage measured by its caller)."""
+        self.stages_ms[name] = self.stages_ms.get(name, 0.0) + ms
+
     @property
     def total_ms(self) -> float:
         """Sum over all stages."""

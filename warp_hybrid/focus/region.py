@@ -75,6 +75,11 @@ class RingedRegion:
     layouts: list[WindowLayout]
 
 
+#: The fewest runs a band of ``list_runs`` holds on the CPU: a run writes a few hundred
+#: indices, a launch costs tens of us, so a window's runs go out in one band per thread.
+RUN_BAND_ITEMS = 1 << 14
+
+
 def ring_runs(layouts: list[WindowLayout]) -> tuple[np.ndarray, list[int]]:
     """The column runs of each ring between nested ``layouts`` (innermost first): per
     ring and row up to two runs, outer span minus inner span, as (4, 2 * rings * H)
@@ -169,12 +174,15 @@ class FocusRegionBuilder(RenderPass):
         with timer.stage("focus"):
             layouts = [layout.scaled(((k + 1) / count) ** 0.5) for k in range(count)]
             runs, ends = ring_runs(layouts)
+            runs = np.ascontiguousarray(runs[:, runs[2] > runs[1]])  # the empty runs list nothing
             device = self.launcher.device
             if self._runs is None or self._runs.shape != runs.shape:
                 self._runs = wp.empty(runs.shape, dtype=wp.int32, device=device)
                 self._ring_pixels = wp.empty(self.width * self.height, dtype=wp.int32, device=device)
             self._runs.assign(runs)
-            self.launcher.launch_items(list_runs, runs.shape[1], [self._runs, self.width, self._ring_pixels])
+            self.launcher.launch_items(
+                list_runs, runs.shape[1], [self._runs, self.width, self._ring_pixels], min_band_items=RUN_BAND_ITEMS
+            )
             return RingedRegion(self._ring_pixels, ends, layouts)
 
     def full_screen(self) -> FocusRegion:

@@ -3,12 +3,21 @@
 ``Tracer.trace`` takes the G-buffer and a compacted list of flat pixel indices (the
 focus window, or every pixel for ``--mode full``) and writes, for each listed pixel,
 the fully traced linear radiance and the per-light visibility AOV.  The work is
-proportional to the list's length.  Two timed stages, each launched over the list
-split between the launcher's threads:
+proportional to the list's length.  The list is cut into bands shared by the
+launcher's threads (``Launcher.share_until``); a thread runs both kernels on a band, one
+after the other:
 
-* "trace_shadow": shadow rays from the primary points (RGB transmittance per light);
-* "trace_secondary": shading of the primary point plus the reflection/refraction path
+* the shadow kernel: shadow rays from the primary points (RGB transmittance per light);
+* the path kernel: shading of the primary point plus the reflection/refraction path
   with the shadow rays of its secondary hits.
+
+The call's time is split between the stages "trace_shadow" and "trace_secondary" in
+proportion to the time the threads spent in each kernel (one pass over the list, so a
+call waits for its threads once, not once per kernel).  ``trace_rings`` traces a list
+made of rings (the budget guard's, ``guard.py``) in ring order and, under a deadline,
+starts a band of a ring after the first only while the clock says it ends in time at
+the cost per pixel the call's bands took so far: the pixels traced are always the
+list's first ones, and it stops within one band of the deadline.
 
 Which kernel variant runs follows the scene's features (``variant.TraceVariant``):
 the smallest one that covers the scene, re-chosen when a scene update changes the
@@ -19,6 +28,9 @@ frame) and read by the caller after the frame, so a frame has no host sync insid
 
 from __future__ import annotations
 
+import math
+import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import warp as wp
@@ -28,7 +40,7 @@ from ..core.features import SceneFeatures
 from ..core.gbuffer import GBuffer
 from ..core.passes import FrameContext, RenderPass
 from ..errors import RenderSettingsError
-from ..parallel import Launcher
+from ..parallel import MIN_BAND_ITEMS, Launcher, band_count
 from ..scene.device import DeviceScene
 from ..timing import StageTimer
 from .occluders import Occluders
@@ -229,12 +241,39 @@ class Tracer(RenderPass):
         ``sample_seed``).  Raises
         ``ValueError`` on mismatched shapes or a scene needing effects the tracer was not
         built for."""
+        self.trace_rings(scene, camera, gbuffer, pixels, [count], color_out, visibility_out, timer, None, sample_index)
+        assert self.tally is not None
+        return self.tally
+
+    def trace_rings(
+        self,
+        scene: DeviceScene,
+        camera: CameraGPU,
+        gbuffer: GBuffer,
+        pixels: wp.array,
+        ring_ends: Sequence[int],
+        color_out: wp.array,
+        visibility_out: wp.array,
+        timer: StageTimer,
+        deadline: float | None = None,
+        sample_index: int = 0,
+    ) -> int:
+        """``trace`` for the pixels ``pixels[0:ring_ends[-1]]``, made of the rings
+        ``pixels[ring_ends[k - 1]:ring_ends[k]]``, in ring order (module docstring): the
+        first ring whole, the others while the clock (``timer.now()``) says a band ends
+        by ``deadline`` (None: every ring).  Returns how many rings were traced whole
+        (the pixels of a ring cut short are traced, and counted in the tally, but no
+        ring is counted for them)."""
         self.set_scene(scene)
         lights = scene.gpu.light_count
+        ends = [int(e) for e in ring_ends]
+        if any(b < a for a, b in zip([0, *ends], ends)):
+            raise ValueError(f"ring ends must not decrease, got {ends}")
+        count = ends[-1] if ends else 0
         self._check(gbuffer, camera, pixels, count, color_out, visibility_out, lights)
         tally = self.tally if self.tally is not None else self.begin_frame(gbuffer.width, gbuffer.height)
         if count == 0:
-            return tally
+            return len(ends)
         transmittance, counts = self._scratch(count, lights)
         counts.zero_()
         occluders = self._occluders_for(scene, timer)
@@ -246,16 +285,69 @@ class Tracer(RenderPass):
         tf.pixels = pixels
         tf.transmittance = transmittance
         tf.counts = counts
-        with timer.stage("trace_shadow"):
-            if self.shadow_kernel is not None and lights > 0:
-                self.launcher.launch_items(self.shadow_kernel, count, [scene.gpu, tf, visibility_out])
-        with timer.stage("trace_secondary"):
-            self.launcher.launch_items(self.path_kernel, count, [scene.gpu, scene.ambient, tf, color_out])
+        shadow = self.shadow_kernel if lights > 0 else None
+        shadow_inputs = [scene.gpu, tf, visibility_out]
+        path_inputs = [scene.gpu, scene.ambient, tf, color_out]
+        bands = ring_bands(ends, band_count(count, self.launcher.threads, MIN_BAND_ITEMS))
+        # per thread: seconds in the shadow and the path kernel, and items traced
+        shadow_s = [0.0] * self.launcher.threads
+        path_s = [0.0] * self.launcher.threads
+        done = [0] * self.launcher.threads
+
+        def mark() -> float:
+            if timer.sync is not None:
+                timer.sync()
+            return time.perf_counter()
+
+        def proceed(k: int) -> bool:
+            first, items, ring = bands[k]
+            if deadline is None or ring == 0:
+                return True
+            traced = sum(done)
+            per_item = (sum(shadow_s) + sum(path_s)) / traced if traced > 0 else 0.0
+            return timer.now() + items * per_item <= deadline
+
+        def job(k: int, slot: int) -> None:
+            first, items, _ring = bands[k]
+            t0 = mark()
+            if shadow is not None:
+                self.launcher.launch(shadow, slot, items, [*shadow_inputs, first, 1], first=k == 0)
+            t1 = mark()
+            self.launcher.launch(self.path_kernel, slot, items, [*path_inputs, first, 1], first=k == 0)
+            t2 = mark()
+            shadow_s[slot] += t1 - t0
+            path_s[slot] += t2 - t1
+            done[slot] += items
+
+        start = timer.now()
+        ran = self.launcher.share_until(job, len(bands), proceed)
+        traced = bands[ran - 1][0] + bands[ran - 1][1] if ran > 0 else 0
         self.launcher.launch_slots(
             tally_tiles,
-            count,
+            traced,
             [pixels, counts, gbuffer.width, gbuffer.height, tally.tiles_x, tally.table],
             min_band_items=TALLY_BAND_ITEMS,
         )
-        tally.items += count
-        return tally
+        tally.items += traced
+        total_ms = (timer.now() - start) * 1000.0
+        busy = sum(shadow_s) + sum(path_s)
+        shadow_ms = total_ms * sum(shadow_s) / busy if busy > 0.0 else 0.0
+        timer.add("trace_shadow", shadow_ms)
+        timer.add("trace_secondary", total_ms - shadow_ms)
+        return sum(1 for e in ends if e <= traced)
+
+
+def ring_bands(ring_ends: Sequence[int], bands: int) -> list[tuple[int, int, int]]:
+    """The bands (first item, items, ring) ``Tracer.trace_rings`` cuts the rings ending at
+    ``ring_ends`` into: about ``bands`` over the whole list, each ring its own bands in
+    proportion to its share of the list (one at least, none for an empty ring), the
+    sizes within a ring differing by at most one."""
+    total = ring_ends[-1] if ring_ends else 0
+    out: list[tuple[int, int, int]] = []
+    for ring, (lo, hi) in enumerate(zip([0, *ring_ends[:-1]], ring_ends)):
+        items = hi - lo
+        if items <= 0:
+            continue
+        n = max(1, min(items, math.ceil(items * bands / total)))
+        out.extend((lo + k * items // n, (k + 1) * items // n - k * items // n, ring) for k in range(n))
+    return out

@@ -77,11 +77,13 @@ class AlphaLayer(RenderPass):
         self._behind: GBuffer | None = None
         self._behind_color: wp.array | None = None
         self._view: DeviceScene | None = None
+        self._previous: DeviceScene | None = None  # the last view, whose indices a new one may reuse
 
     def set_scene(self, scene: DeviceScene) -> None:
         """Draw ``scene`` from now on (the view without its blended triangles is made
         again at the next frame that needs it)."""
         super().set_scene(scene)
+        self._previous = self._view or self._previous
         self._view = None
 
     def execute(self, frame: FrameContext) -> None:
@@ -99,7 +101,7 @@ class AlphaLayer(RenderPass):
         ``color`` ((H, W) vec3, the shaded front layer); ``timer`` gets the second layer's
         own stages (clear, raster, resolve, surface, lighting)."""
         if self._view is None:
-            self._view = hide_materials(scene, lambda m: m.is_blended)
+            self._view = hide_materials(scene, lambda m: m.is_blended, self._previous)
         h, w = front.height, front.width
         if self._behind is None or (self._behind.width, self._behind.height) != (w, h):
             self._behind = GBuffer(w, h, self.launcher.device)

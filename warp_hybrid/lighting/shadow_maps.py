@@ -86,10 +86,10 @@ class HitRecordTarget:
         return self._rows
 
 
-def caster_scene(scene: DeviceScene) -> DeviceScene:
+def caster_scene(scene: DeviceScene, previous: DeviceScene | None = None) -> DeviceScene:
     """``scene`` as the maps are drawn: its emissive and transmissive triangles hidden
     (``scene.device.subset.hide_materials``)."""
-    return hide_materials(scene, lambda m: m.is_emissive or m.is_transmissive)
+    return hide_materials(scene, lambda m: m.is_emissive or m.is_transmissive, previous)
 
 
 def light_geometry(light: Light) -> tuple[float, ...]:
@@ -175,6 +175,7 @@ class ShadowMaps(RenderPass):
         self._rasterizer = Rasterizer(launcher)
         self._target = HitRecordTarget(size, launcher.device)
         self._drawn_for: tuple | None = None
+        self._casters: DeviceScene | None = None  # the last caster view, whose indices a new one may reuse
 
     def execute(self, frame: FrameContext) -> None:
         """Bring the maps up to date for the scene set with ``set_scene`` (timed)."""
@@ -200,7 +201,7 @@ class ShadowMaps(RenderPass):
 
     def _draw(self, scene: DeviceScene) -> None:
         """Render every light's faces into a (faces, size, size) depth array."""
-        casters = caster_scene(scene)
+        casters = self._casters = caster_scene(scene, self._casters)
         faces: list[tuple[CameraGPU, bool]] = []
         first = []
         for light in scene.scene.lights:

@@ -201,7 +201,13 @@ def _corner_colors(scene: Scene) -> np.ndarray:
 
 
 class DeviceScene:
-    """A ``Scene`` uploaded to one Warp device, with its BVH and dome data."""
+    """A ``Scene`` uploaded to one Warp device, with its BVH and dome data.
+
+    ``view_of`` and ``hidden_materials`` are set on the views ``subset.hide_materials``
+    makes (the scene a view shows part of, and its per-material hidden mask)."""
+
+    view_of: DeviceScene | None = None
+    hidden_materials: np.ndarray | None = None
 
     def __init__(
         self,

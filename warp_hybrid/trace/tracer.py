@@ -40,7 +40,7 @@ from ..core.features import SceneFeatures
 from ..core.gbuffer import GBuffer
 from ..core.passes import FrameContext, RenderPass
 from ..errors import RenderSettingsError
-from ..parallel import MIN_BAND_ITEMS, Launcher, band_count
+from ..parallel import MIN_BAND_ITEMS, Launcher, band, band_count
 from ..scene.device import DeviceScene
 from ..timing import StageTimer
 from .occluders import Occluders
@@ -349,5 +349,5 @@ def ring_bands(ring_ends: Sequence[int], bands: int) -> list[tuple[int, int, int
         if items <= 0:
             continue
         n = max(1, min(items, math.ceil(items * bands / total)))
-        out.extend((lo + k * items // n, (k + 1) * items // n - k * items // n, ring) for k in range(n))
+        out.extend((lo + first, size, ring) for first, size in (band(k, n, items) for k in range(n)))
     return out

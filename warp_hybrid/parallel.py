@@ -19,7 +19,6 @@ the thread that ran it.
 
 from __future__ import annotations
 
-import itertools
 import os
 import threading
 import time
@@ -194,25 +193,18 @@ class Launcher:
 
     def share(self, launch_band: Callable[[int, int, int], None], bands: int) -> None:
         """Run ``launch_band(k, bands, slot)`` for every band k, each thread (``slot``,
-        0 .. threads - 1) taking the next band left until none is (``next`` on a shared
-        counter is atomic under the GIL); a pass that accumulates per thread writes to
-        its ``slot``."""
-        taken = itertools.count()
+        0 .. threads - 1) taking the next band left until none is (``share_until`` with
+        no stop); a pass that accumulates per thread writes to its ``slot``."""
+        self.share_until(lambda k, slot: launch_band(k, bands, slot), bands)
 
-        def worker(slot: int, _workers: int) -> None:
-            for k in iter(taken.__next__, None):
-                if k >= bands:
-                    return
-                launch_band(k, bands, slot)
-
-        self._map(worker, min(self.threads, bands))
-
-    def share_until(self, job: Callable[[int, int], None], bands: int, proceed: Callable[[int], bool]) -> int:
+    def share_until(
+        self, job: Callable[[int, int], None], bands: int, proceed: Callable[[int], bool] | None = None
+    ) -> int:
         """Run ``job(k, slot)`` for the bands k = 0, 1, ... in order, each thread (``slot``)
-        taking the next band left; before a band is taken ``proceed(k)`` is asked, under a
-        lock and so in band order, and the first False stops every thread before band k.
-        Returns how many bands ran: always bands 0 .. n - 1, a prefix (a band taken is
-        always run)."""
+        taking the next band left; before a band is taken ``proceed(k)`` is asked (None:
+        every band runs), under a lock and so in band order, and the first False stops
+        every thread before band k.  Returns how many bands ran: always bands 0 .. n - 1,
+        a prefix (a band taken is always run)."""
         lock = threading.Lock()
         state = {"next": 0, "stopped": False}
 
@@ -221,7 +213,7 @@ class Launcher:
                 k = state["next"]
                 if state["stopped"] or k >= bands:
                     return None
-                if not proceed(k):
+                if proceed is not None and not proceed(k):
                     state["stopped"] = True
                     return None
                 state["next"] = k + 1

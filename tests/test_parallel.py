@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import warp as wp
 
-from warp_hybrid.parallel import BANDS_PER_THREAD, Launcher, band, band_count
+from warp_hybrid.parallel import BANDS_PER_THREAD, BandLaunch, Launcher, band, band_count
 
 
 @wp.kernel
@@ -71,6 +71,62 @@ def test_launch_items_covers_each_item_once(device: str, threads: int, count: in
     with Launcher(device, threads) as launcher:
         launcher.launch_items(_count_items, count, [out])
     np.testing.assert_array_equal(out.numpy(), np.ones(count, np.int32))
+
+
+@wp.kernel
+def _mark_items(out: wp.array(dtype=wp.int32), mark: int, start: int, step: int):
+    out[start + wp.tid() * step] = mark
+
+
+def _counting_launches(monkeypatch: pytest.MonkeyPatch) -> list[bool]:
+    """Make every ``wp.launch`` call append whether it only recorded the launch."""
+    calls: list[bool] = []
+    real = wp.launch
+
+    def launch(*args, **kwargs):
+        calls.append(bool(kwargs.get("record_cmd", False)))
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(wp, "launch", launch)
+    return calls
+
+
+@pytest.mark.parametrize("threads", [1, 2, 3])
+def test_a_pass_packs_its_arguments_once_per_thread(device: str, threads: int, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The bands of a pass reuse one recorded launch per thread: each band runs with its
+    own start and size (every item once), and the arguments are packed by as many
+    ``wp.launch`` calls as threads took bands, however many bands there are."""
+    count = 9001
+    out = wp.zeros(count, dtype=wp.int32, device=device)
+    calls = _counting_launches(monkeypatch)
+    with Launcher(device, threads) as launcher:
+        launcher.launch_items(_count_items, count, [out])
+    np.testing.assert_array_equal(out.numpy(), np.ones(count, np.int32))
+    is_cuda = wp.get_device(device).is_cuda
+    assert 1 <= len(calls) <= (1 if is_cuda else threads)
+    assert all(calls) != is_cuda  # the CPU's bands record; CUDA's one launch does not
+
+
+def test_band_launch_takes_each_threads_own_inputs(device: str) -> None:
+    """Inputs given per thread slot reach the bands that thread runs, and only those;
+    a second pass over another array packs its own arguments (nothing from the first)."""
+    count, bands = 4000, 16
+    with Launcher(device, 2) as launcher:
+        for out in (wp.zeros(count, dtype=wp.int32, device=device), wp.zeros(count, dtype=wp.int32, device=device)):
+            run = BandLaunch(launcher, _mark_items, lambda slot, out=out: [out, slot + 1])
+            ran: dict[int, int] = {}
+
+            def job(k: int, slot: int, run: BandLaunch = run, ran: dict[int, int] = ran) -> None:
+                first, items = band(k, bands, count)
+                ran[k] = slot
+                run(slot, items, (first, 1), k == 0)
+
+            launcher.share_until(job, bands)
+            marks = out.numpy()
+            for k, slot in ran.items():
+                first, items = band(k, bands, count)
+                np.testing.assert_array_equal(marks[first : first + items], slot + 1)
+            assert sorted(ran) == list(range(bands))
 
 
 @pytest.mark.parametrize(("total", "bands"), [(1, 1), (7, 3), (480, 16), (481, 16), (5, 5)])

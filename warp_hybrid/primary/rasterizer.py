@@ -25,7 +25,7 @@ import warp as wp
 
 from ..core.camera import CameraGPU
 from ..core.gbuffer import GBuffer
-from ..parallel import Launcher, band, band_count
+from ..parallel import BandLaunch, Launcher, band, band_count
 from ..scene.device import DeviceScene
 from ..timing import StageTimer
 from . import kernels
@@ -98,15 +98,18 @@ class Rasterizer(PrimaryVisibility):
         bounds = self._cluster_bounds(scene)
         clusters = bounds.shape[0]
 
-        def cover_band(k: int, bands: int, slot: int) -> None:
-            first, size = band(k, bands, clusters)
+        def inputs(slot: int) -> list:
             target = RasterTarget()
             target.keys = keys
             target.slot = slot
             target.mode = mode
-            launcher.launch(
-                kernels.coverage_kernel, slot, size, [scene.gpu, camera, pts, target, bounds, count, first, 1], k == 0
-            )
+            return [scene.gpu, camera, pts, target, bounds, count]
+
+        run = BandLaunch(launcher, kernels.coverage_kernel, inputs)
+
+        def cover_band(k: int, bands: int, slot: int) -> None:
+            first, size = band(k, bands, clusters)
+            run(slot, size, (first, 1), k == 0)
 
         launcher.share(cover_band, band_count(clusters, keys.shape[0], MIN_BAND_CLUSTERS))
 

@@ -40,7 +40,7 @@ from ..core.features import SceneFeatures
 from ..core.gbuffer import GBuffer
 from ..core.passes import FrameContext, RenderPass
 from ..errors import RenderSettingsError
-from ..parallel import MIN_BAND_ITEMS, Launcher, band, band_count
+from ..parallel import MIN_BAND_ITEMS, BandLaunch, Launcher, band, band_count
 from ..scene.device import DeviceScene
 from ..timing import StageTimer
 from .occluders import Occluders
@@ -307,13 +307,16 @@ class Tracer(RenderPass):
             per_item = (sum(shadow_s) + sum(path_s)) / traced if traced > 0 else 0.0
             return timer.now() + items * per_item <= deadline
 
+        run_shadow = BandLaunch(self.launcher, shadow, shadow_inputs) if shadow is not None else None
+        run_path = BandLaunch(self.launcher, self.path_kernel, path_inputs)
+
         def job(k: int, slot: int) -> None:
             first, items, _ring = bands[k]
             t0 = mark()
-            if shadow is not None:
-                self.launcher.launch(shadow, slot, items, [*shadow_inputs, first, 1], first=k == 0)
+            if run_shadow is not None:
+                run_shadow(slot, items, (first, 1), k == 0)
             t1 = mark()
-            self.launcher.launch(self.path_kernel, slot, items, [*path_inputs, first, 1], first=k == 0)
+            run_path(slot, items, (first, 1), k == 0)
             t2 = mark()
             shadow_s[slot] += t1 - t0
             path_s[slot] += t2 - t1

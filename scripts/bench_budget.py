@@ -10,7 +10,7 @@ time percentiles, and the controller's prediction error per frame (median and 95
 percentile of |predicted - measured| frame ms).  Each scene runs in its own subprocess.
 
     .venv/bin/python scripts/bench_budget.py [--scenes staircase classroom_animated] [--size 640x480]
-        [--fps 15] [--device cpu|cuda:0] [--raster-cache off|on] [--json out/bench_budget.json]
+        [--fps 15] [--device cpu|cuda:0] [--raster-cache off|on] [--bvh wide|warp] [--json out/bench_budget.json]
 """
 
 from __future__ import annotations
@@ -18,13 +18,20 @@ from __future__ import annotations
 import statistics
 
 import numpy as np
-from bench_common import ROOT, run_per_scene
+from bench_common import BVH_OPTION, ROOT, run_per_scene, wide_bvh_setting
 
 TRACE = ROOT / "scenes" / "traces" / "demo_gaze.csv"
 
 
 def measure_scene(
-    path: str, width: int, height: int, repeats: int, fps: float, device: str = "cpu", raster_cache: str = "off"
+    path: str,
+    width: int,
+    height: int,
+    repeats: int,
+    fps: float,
+    device: str = "cpu",
+    raster_cache: str = "off",
+    bvh: str = "wide",
 ) -> dict:
     """Raster-only median (every frame drawn whole) and a budgeted replay of the trace for
     one scene (``raster_cache`` "on": the still view's raster layer kept across frames, as
@@ -44,7 +51,14 @@ def measure_scene(
         gaze = SteadyGaze(open_source("fixed:0.5,0.5"))
         loop.renderer.warm_up(loop.camera)
         raster_ms = statistics.median(loop.step(0.0, gaze.sample(0.0)).frame_ms for _ in range(max(repeats, 3)))
-    hybrid = RenderSettings(width=width, height=height, mode="hybrid", device=device, cache_raster=raster_cache == "on")
+    hybrid = RenderSettings(
+        width=width,
+        height=height,
+        mode="hybrid",
+        device=device,
+        cache_raster=raster_cache == "on",
+        wide_bvh=wide_bvh_setting(bvh),
+    )
     frames_ms, traced, errors = [], [], []
     with open_source(f"trace:{TRACE}") as trace, AdaptiveLoop(source, hybrid, LoopSettings(fps=fps)) as loop:
         gaze = SteadyGaze(trace)
@@ -94,6 +108,7 @@ def main() -> None:
                     "every frame drawn whole)",
                 },
             ),
+            BVH_OPTION,
         ],
     )
     fps = args.fps

@@ -51,6 +51,23 @@ def peak_rss_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
+#: The benchmarks' ``--bvh`` option: the tracer's 4-wide BVH copies (the CPU's default)
+#: or Warp's own queries, to measure the one against the other.
+BVH_OPTION = (
+    "--bvh",
+    {
+        "choices": ("wide", "warp"),
+        "default": "wide",
+        "help": "the tracer's BVH queries: its 4-wide copies (default on the CPU) or Warp's own",
+    },
+)
+
+
+def wide_bvh_setting(bvh: str) -> bool | None:
+    """``RenderSettings.wide_bvh`` for a ``--bvh`` value (None: the device's default)."""
+    return None if bvh == "wide" else False
+
+
 def run_per_scene(
     description: str,
     script: str,

@@ -17,7 +17,7 @@ synchronised inside the timing):
 
 Rays are built on the host once (not timed).  Each scene runs in its own subprocess.
 
-    .venv/bin/python scripts/bench_peer.py [--scenes staircase classroom] [--size 640x480] [--repeats 5]
+    .venv/bin/python scripts/bench_peer.py [--scenes staircase classroom] [--size 640x480] [--repeats 5] [--bvh wide|warp]
         [--json out/bench_peer.json]
 """
 
@@ -26,7 +26,7 @@ from __future__ import annotations
 import time
 
 import numpy as np
-from bench_common import median_ms, run_per_scene
+from bench_common import BVH_OPTION, median_ms, run_per_scene, wide_bvh_setting
 
 PRIMARY_STAGES = ("clear", "raster", "resolve", "surface")
 
@@ -116,7 +116,7 @@ def _mitsuba(scene, camera, width: int, height: int, repeats: int, threads: int)
     return out
 
 
-def measure_scene(path: str, width: int, height: int, repeats: int) -> dict:
+def measure_scene(path: str, width: int, height: int, repeats: int, bvh: str = "wide") -> dict:
     """This project's raster and full frames and Mitsuba's three passes on one scene."""
     from warp_hybrid.renderer import Renderer, RenderSettings
     from warp_hybrid.runtime import init_warp
@@ -128,7 +128,8 @@ def measure_scene(path: str, width: int, height: int, repeats: int) -> dict:
     ours: dict[str, dict[str, float]] = {}
     threads, hit_share = 0, 0.0
     for mode in ("raster", "full"):
-        with Renderer(scene, RenderSettings(width=width, height=height, mode=mode)) as r:
+        settings = RenderSettings(width=width, height=height, mode=mode, wide_bvh=wide_bvh_setting(bvh))
+        with Renderer(scene, settings) as r:
             threads = r.launcher.threads
 
             def frame() -> dict[str, float]:
@@ -158,7 +159,7 @@ def measure_scene(path: str, width: int, height: int, repeats: int) -> dict:
 
 def main() -> None:
     """Run the benchmark and print the table."""
-    args, width, height, results = run_per_scene(__doc__.splitlines()[0], __file__, measure_scene)
+    args, width, height, results = run_per_scene(__doc__.splitlines()[0], __file__, measure_scene, options=[BVH_OPTION])
     print(
         "| scene | triangles | lights | G-buffer ms / Mitsuba primary ms | raster frame / primary | "
         "trace_shadow ms / Mitsuba shadow ms | full frame ms / Mitsuba Whitted ms |"

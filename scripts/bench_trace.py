@@ -7,17 +7,17 @@ reflection + refraction) in full mode; and full-mode tracing with 1 thread vs al
 threads, to check the launch layer's scaling.  Each scene runs in its own subprocess.
 
     .venv/bin/python scripts/bench_trace.py [--scenes staircase glass_dragon] [--size 640x480]
-        [--repeats 5] [--device cpu|cuda:0] [--json out/bench_trace.json]
+        [--repeats 5] [--device cpu|cuda:0] [--bvh wide|warp] [--json out/bench_trace.json]
 """
 
 from __future__ import annotations
 
-from bench_common import median_ms, run_per_scene
+from bench_common import BVH_OPTION, median_ms, run_per_scene, wide_bvh_setting
 
 TRACE_STAGES = ("trace_shadow", "trace_secondary")
 
 
-def measure_scene(path: str, width: int, height: int, repeats: int, device: str = "cpu") -> dict:
+def measure_scene(path: str, width: int, height: int, repeats: int, device: str = "cpu", bvh: str = "wide") -> dict:
     """All modes of one scene in this process on ``device``; returns a JSON-ready dict."""
     from warp_hybrid.renderer import Renderer, RenderSettings
     from warp_hybrid.runtime import init_warp
@@ -35,7 +35,13 @@ def measure_scene(path: str, width: int, height: int, repeats: int, device: str 
     }
     for name, (mode, threads) in configs.items():
         settings = RenderSettings(
-            width=width, height=height, mode=mode, window_fraction=0.25, threads=threads, device=device
+            width=width,
+            height=height,
+            mode=mode,
+            window_fraction=0.25,
+            threads=threads,
+            device=device,
+            wide_bvh=wide_bvh_setting(bvh),
         )
         with Renderer(scene, settings) as r:
             last: dict = {}
@@ -75,7 +81,7 @@ def main() -> None:
         __doc__.splitlines()[0],
         __file__,
         measure_scene,
-        options=[("--device", {"default": "cpu", "help": "Warp device (cpu or cuda:0)"})],
+        options=[("--device", {"default": "cpu", "help": "Warp device (cpu or cuda:0)"}), BVH_OPTION],
     )
     print(
         "| scene | triangles | DS fps | RT fps | HRT fps (25%) | HRT vs RT | shadow Mrays/s | secondary Mrays/s | trace 2 vs 1 thread |"

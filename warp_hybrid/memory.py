@@ -46,6 +46,9 @@ KEY_BYTES = 8
 HOST_BYTES_PER_PIXEL = 3 + 12 + 64
 #: Device bytes per triangle besides its arrays: the main BVH and the shadow BVHs.
 BVH_BYTES_PER_TRIANGLE = 128
+#: On the CPU, the tracer's 4-wide copies of those BVHs (``trace/wide_bvh.py``; 123-126
+#: bytes a triangle measured on the shared scenes).
+WIDE_BVH_BYTES_PER_TRIANGLE = 128
 #: Texel mip chains add a third to every image (float4 texels).
 MIP_FACTOR = 4.0 / 3.0
 #: Shadow maps: faces per light at most (a cube map), float32 depth per texel, the hit
@@ -136,10 +139,12 @@ def host_bytes(width: int, height: int, lights: int) -> int:
     return (HOST_BYTES_PER_PIXEL + 8 * lights) * width * height
 
 
-def scene_bytes(scene: Scene) -> int:
-    """Device bytes of ``scene``'s upload: its arrays, BVHs and texel mip chains."""
+def scene_bytes(scene: Scene, wide_bvh: bool = False) -> int:
+    """Device bytes of ``scene``'s upload: its arrays, BVHs (``wide_bvh``: and their 4-wide
+    copies, as the CPU tracer builds) and texel mip chains."""
+    per_triangle = BVH_BYTES_PER_TRIANGLE + (WIDE_BVH_BYTES_PER_TRIANGLE if wide_bvh else 0)
     arrays = sum(a.nbytes for a in (scene.points, scene.indices, scene.corner_normals, scene.corner_uvs))
-    arrays += scene.triangle_material.nbytes + BVH_BYTES_PER_TRIANGLE * scene.triangle_count
+    arrays += scene.triangle_material.nbytes + per_triangle * scene.triangle_count
     texels = sum(image.pixels.nbytes for image in scene.images)
     return int(arrays + MIP_FACTOR * texels)
 
@@ -197,7 +202,7 @@ def check_memory(
     surfaces; ``probe``: the reflection probe's face size, 0 when off; ``reuse``: temporal
     reuse's history); a ``RenderSettingsError`` stating it when it exceeds what ``device``
     (and the host) has available now."""
-    upload = scene_bytes(scene) if scene is not None else 0
+    upload = scene_bytes(scene, wide_bvh=device.is_cpu) if scene is not None else 0
     maps = shadow_map_bytes(shadow_maps, lights, threads, points) + probe_bytes(probe, threads, points)
     estimate = MemoryEstimate(
         device=frame_bytes(width, height, lights, threads, spp, fovea_spp, alpha_layer, reuse) + maps + upload,

@@ -15,6 +15,12 @@ tracer keeps
 When every triangle is opaque the scene's own BVH serves as ``opaque`` and nothing
 is built.  Both meshes share the ``DeviceScene``'s points array, so after an animated
 update they are refitted, not rebuilt.
+
+With ``wide`` (the CPU's default, ``TraceSettings.wide_bvh``) each of the two, and the
+scene's own BVH (the path's closest hits), also has its 4-wide copy (``wide_bvh.WideBVH``:
+the same tree and answers, 2-3x faster queries), which that variant of the tracer
+queries instead (``TraceVariant.wide_bvh``); a refit copies the refitted boxes into
+them.  Without it (CUDA) they are empty and never read.
 """
 
 from __future__ import annotations
@@ -24,17 +30,22 @@ import warp as wp
 
 from ..scene.device import DeviceScene
 from ..scene.model import Material
+from .wide_bvh import WideBVH, WideBVHGPU
 
 
 @wp.struct
 class OccluderGPU:
     """The shadow BVHs (below): opaque triangles (any-hit) and the
     transmissive/cut-out/emissive ones (ordered walk), ``special_faces`` mapping the
-    latter's faces to scene triangle ids; an id of 0 means empty."""
+    latter's faces to scene triangle ids; an id of 0 means empty.  ``*_wide``: the 4-wide
+    copies of the two and of the scene's BVH (``scene_wide``; CPU only, else empty)."""
 
     opaque: wp.uint64
     special: wp.uint64
     special_faces: wp.array(dtype=wp.int32)
+    opaque_wide: WideBVHGPU
+    special_wide: WideBVHGPU
+    scene_wide: WideBVHGPU
 
 
 def lets_light_through(m: Material) -> bool:
@@ -46,9 +57,11 @@ def lets_light_through(m: Material) -> bool:
 class Occluders:
     """The two shadow BVHs of one ``DeviceScene`` (see the module docstring)."""
 
-    def __init__(self, scene: DeviceScene) -> None:
-        """Split ``scene``'s triangles by material and build the BVHs (once)."""
+    def __init__(self, scene: DeviceScene, wide: bool = False) -> None:
+        """Split ``scene``'s triangles by material and build the BVHs (once), and with
+        ``wide`` (CPU only) their 4-wide copies and the scene's."""
         self.scene = scene
+        self.wide = wide
         self._geometry_version = scene.geometry_version
         self._materials_version = scene.materials_version
         special_mat = np.array([lets_light_through(m) for m in scene.scene.materials] or [False], dtype=bool)
@@ -59,26 +72,37 @@ class Occluders:
         dev = scene.device
         self._meshes: list[wp.Mesh] = []
         g = OccluderGPU()
+        scene_wide = self._wide(scene.mesh, scene.scene.triangle_count)
         if self.special_count == 0:
             g.opaque = wp.uint64(scene.mesh.id if scene.mesh is not None else 0)
             g.special = wp.uint64(0)
             faces = np.zeros(1, dtype=np.int32)
+            opaque_wide, special_wide = scene_wide, self._wide(None, 0)
         else:
-            g.opaque = wp.uint64(self._mesh(indices[~special]))
-            g.special = wp.uint64(self._mesh(indices[special]))
+            opaque, special_mesh = self._mesh(indices[~special]), self._mesh(indices[special])
+            g.opaque = wp.uint64(opaque.id if opaque is not None else 0)
+            g.special = wp.uint64(special_mesh.id)
+            opaque_wide = self._wide(opaque, int((~special).sum()))
+            special_wide = self._wide(special_mesh, self.special_count)
             faces = np.flatnonzero(special).astype(np.int32)
+        self._wides = [w for w in (scene_wide, opaque_wide, special_wide) if w.node_count]
         self.special_faces = wp.array(faces, dtype=wp.int32, device=dev)
         g.special_faces = self.special_faces
+        g.scene_wide, g.opaque_wide, g.special_wide = scene_wide.gpu, opaque_wide.gpu, special_wide.gpu
         self.gpu = g
 
-    def _mesh(self, tris: np.ndarray) -> int:
-        """A BVH over ``tris`` (T, 3) sharing the scene's points; id 0 when empty."""
+    def _mesh(self, tris: np.ndarray) -> wp.Mesh | None:
+        """A BVH over ``tris`` (T, 3) sharing the scene's points; None when empty."""
         if len(tris) == 0:
-            return 0
+            return None
         idx = wp.array(np.ascontiguousarray(tris.reshape(-1)), dtype=wp.int32, device=self.scene.device)
         mesh = wp.Mesh(points=self.scene.points, indices=idx)
         self._meshes.append(mesh)
-        return int(mesh.id)
+        return mesh
+
+    def _wide(self, mesh: wp.Mesh | None, triangles: int) -> WideBVH:
+        """The 4-wide copy of ``mesh``; an empty one without ``wide`` or without a mesh."""
+        return WideBVH(mesh if self.wide else None, triangles)
 
     def matches(self, scene: DeviceScene) -> bool:
         """Whether these BVHs split ``scene``'s triangles as its materials do now (a
@@ -86,9 +110,11 @@ class Occluders:
         return scene is self.scene and self._materials_version == scene.materials_version
 
     def refresh(self) -> None:
-        """Refit the BVHs if the scene's points moved since the
+        """Refit the BVHs and their 4-wide copies if the scene's points moved since the
         last call (``DeviceScene.geometry_version``)."""
         if self.scene.geometry_version != self._geometry_version:
             for mesh in self._meshes:
                 mesh.refit()
+            for wide in self._wides:  # the scene's BVH was refitted by its update
+                wide.refit()
             self._geometry_version = self.scene.geometry_version

@@ -52,11 +52,13 @@ from ..lighting.lights import light_sample
 from ..lighting.shading import diffuse_albedo, light_response, shade_surface
 from ..scene.device.environment import environment_radiance
 from ..scene.device.surface import SurfaceHit, is_cut_away, surface_at
+from .occluders import OccluderGPU
 from .offset import hit_bound, offset_ray_origin
 from .optics import make_transmission_func, mirror_direction, transmission_tint
 from .rays import MAX_LAYERS, MIN_THROUGHPUT, RayHit, TraceFrame, max3, step_past
 from .shadows import make_light_func
 from .variant import TraceVariant
+from .wide_bvh import wide_closest
 
 MAX_DEPTH = 8
 
@@ -146,7 +148,9 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
 
     Inputs: scene, amb, the call's ``TraceFrame`` (transmittance rows from the shadow
     kernel; count columns 1-3 are written), color (H, W) out, start, step."""
-    light_transmittance = make_light_func(variant.layered_shadows, variant.soft_shadows, variant.cutouts)
+    light_transmittance = make_light_func(
+        variant.layered_shadows, variant.soft_shadows, variant.cutouts, variant.wide_bvh
+    )
     transmission = make_transmission_func(variant.refractions)
     shadows = variant.shadows
     reflections = variant.reflections
@@ -156,14 +160,18 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
     ambient = variant.ambient
     cutouts = variant.cutouts
     secondary = variant.secondary
+    wide = variant.wide_bvh
 
     @wp.func
-    def closest_hit(scene: SceneGPU, o: wp.vec3, d: wp.vec3) -> RayHit:
+    def closest_hit(scene: SceneGPU, occ: OccluderGPU, o: wp.vec3, d: wp.vec3) -> RayHit:
         out = RayHit()
         out.face = -1
         origin = o
         for _layer in range(MAX_LAYERS):
-            q = wp.mesh_query_ray(scene.mesh, origin, d, wp.inf)
+            if wp.static(wide):
+                q = wide_closest(occ.scene_wide, origin, d, wp.inf)
+            else:
+                q = wp.mesh_query_ray(scene.mesh, origin, d, wp.inf)
             if not q.result:
                 return out
             if wp.static(cutouts):
@@ -395,7 +403,7 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
                 reflect_rays += 1
             else:
                 refract_rays += 1
-            hit = closest_hit(scene, ray.origin, ray.direction)
+            hit = closest_hit(scene, tf.occ, ray.origin, ray.direction)
             if hit.face >= 0:
                 h = surface_at(scene, hit.face, hit.u, hit.v, ray.direction)
                 bound = hit_bound(scene, hit.face)

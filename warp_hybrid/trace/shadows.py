@@ -40,6 +40,7 @@ from .occluders import OccluderGPU
 from .offset import hit_bound, offset_ray_origin
 from .optics import transmission_tint
 from .rays import MAX_LAYERS, TraceFrame, TraceParams, is_emissive, max3, step_past
+from .wide_bvh import wide_any_hit, wide_closest
 
 
 @wp.struct
@@ -67,10 +68,10 @@ def light_reaches(ls_irradiance: wp.vec3, ls_e_normal: wp.vec3, n_dot_l: float) 
     return max3(ls_irradiance) > 0.0 or (n_dot_l > 0.0 and max3(ls_e_normal) > 0.0)
 
 
-def _make_transmittance_func(layered: bool, cutouts: bool):
+def _make_transmittance_func(layered: bool, cutouts: bool, wide: bool):
     """``ray_transmittance(scene, occ, o, d, max_t)``: any-hit against the opaque
     BVH, then (``layered``) the ordered walk through the transmissive, cut-out and
-    emissive surfaces of the special BVH."""
+    emissive surfaces of the special BVH; ``wide``: through their 4-wide copies."""
 
     @wp.func
     def ray_transmittance(scene: SceneGPU, occ: OccluderGPU, o: wp.vec3, d: wp.vec3, max_t: float) -> wp.vec3:
@@ -79,7 +80,10 @@ def _make_transmittance_func(layered: bool, cutouts: bool):
         if max_t <= 0.0:
             return t
         if occ.opaque != wp.uint64(0):
-            if wp.mesh_query_ray_anyhit(occ.opaque, o, d, max_t):
+            if wp.static(wide):
+                if wide_any_hit(occ.opaque_wide, o, d, max_t):
+                    return zero
+            elif wp.mesh_query_ray_anyhit(occ.opaque, o, d, max_t):
                 return zero
         if wp.static(not layered):
             return t
@@ -88,7 +92,10 @@ def _make_transmittance_func(layered: bool, cutouts: bool):
         origin = o
         remaining = max_t
         for _layer in range(MAX_LAYERS):
-            q = wp.mesh_query_ray(occ.special, origin, d, remaining)
+            if wp.static(wide):
+                q = wide_closest(occ.special_wide, origin, d, remaining)
+            else:
+                q = wp.mesh_query_ray(occ.special, origin, d, remaining)
             if not q.result:
                 return t
             face = occ.special_faces[q.face]
@@ -115,13 +122,13 @@ def _make_transmittance_func(layered: bool, cutouts: bool):
     return ray_transmittance
 
 
-def make_light_func(layered: bool, soft: bool, cutouts: bool):
+def make_light_func(layered: bool, soft: bool, cutouts: bool, wide: bool):
     """``light_transmittance(scene, params, occ, i, ls, p, n, ng, bound, transmissive, pixel, segment)``:
     the RGB transmittance toward light ``i`` (its sample ``ls`` at ``p``), averaged
     over the shadow samples that leave the surface on the lit side (transmissive
     points may send them through their far side); ``bound`` is ``offset.hit_bound``
     of the triangle ``p`` lies on."""
-    ray_transmittance = _make_transmittance_func(layered, cutouts)
+    ray_transmittance = _make_transmittance_func(layered, cutouts, wide)
 
     @wp.func
     def light_transmittance(
@@ -176,12 +183,12 @@ def make_light_func(layered: bool, soft: bool, cutouts: bool):
 
 
 @functools.lru_cache(maxsize=None)
-def shadow_kernel(layered: bool, soft: bool, cutouts: bool) -> wp.Kernel:
+def shadow_kernel(layered: bool, soft: bool, cutouts: bool, wide: bool) -> wp.Kernel:
     """The primary shadow kernel for one flag tuple (its own Warp module, cached).
 
     Inputs: scene, the call's ``TraceFrame`` (its transmittance rows and count column 0
     are written), visibility (H, W, L) out, start, step."""
-    light_transmittance = make_light_func(layered, soft, cutouts)
+    light_transmittance = make_light_func(layered, soft, cutouts, wide)
 
     @wp.kernel(enable_backward=False, module="unique")
     def trace_shadow(scene: SceneGPU, tf: TraceFrame, visibility: wp.array3d(dtype=wp.float32), start: int, step: int):

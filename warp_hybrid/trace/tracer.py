@@ -60,11 +60,14 @@ class TraceSettings:
     over sphere, rect, disk and angular distant lights (soft shadows).
     ``seed``: seeds the soft-shadow samples (per pixel, deterministic); sample k of a
     supersampled frame uses ``sample_seed(seed, k)``.
+    ``wide_bvh``: query the 4-wide BVH copies (``wide_bvh.py``; the same answers, faster)
+    instead of Warp's own queries; CPU only; None: on the CPU, not on CUDA.
     """
 
     max_depth: int = 3
     shadow_samples: int = 1
     seed: int = 0
+    wide_bvh: bool | None = None
 
     def validate(self) -> None:
         """Raise ``RenderSettingsError`` for values the kernels cannot honour."""
@@ -96,10 +99,13 @@ class Tracer(RenderPass):
         settings.validate()
         self.launcher = launcher
         self.settings = settings
+        self._wide = launcher.device.is_cpu if settings.wide_bvh is None else bool(settings.wide_bvh)
+        if self._wide and not launcher.device.is_cpu:
+            raise RenderSettingsError(f"the 4-wide BVH copies are CPU only, not for {launcher.device.alias}")
         self.fixed_features = features
         self.variant: TraceVariant | None = None
         if features is not None:
-            self._use_variant(TraceVariant.for_scene(features, settings.shadow_samples))
+            self._use_variant(TraceVariant.for_scene(features, settings.shadow_samples, self._wide))
         self._transmittance: wp.array | None = None
         self._counts: wp.array | None = None
         self._occluders: Occluders | None = None
@@ -151,7 +157,7 @@ class Tracer(RenderPass):
         covers its features, and its shadow BVHs.  Raises ``ValueError`` when the tracer
         was built for fixed features the scene exceeds."""
         if self.fixed_features is None:
-            needed = TraceVariant.for_scene(scene.features, self.settings.shadow_samples)
+            needed = TraceVariant.for_scene(scene.features, self.settings.shadow_samples, self._wide)
             if self.variant is None or not self.variant.covers(scene.features):
                 self._use_variant(needed)
         else:
@@ -169,7 +175,7 @@ class Tracer(RenderPass):
         refitted when its points moved."""
         if self._occluders is None or not self._occluders.matches(scene):
             with timer.stage("trace_setup"):
-                self._occluders = Occluders(scene)
+                self._occluders = Occluders(scene, wide=self._wide)
         else:
             self._occluders.refresh()
         return self._occluders

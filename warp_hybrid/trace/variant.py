@@ -1,7 +1,8 @@
 """Which tracer code a scene compiles: the variant, derived from the scene's features.
 
 A ``TraceVariant`` is the traced subset of ``SceneFeatures`` (``core/features.py``, the
-one table of effects) plus whether shadows are soft.  Every compile-time flag the
+one table of effects) plus whether shadows are soft and which BVH queries run: the
+4-wide copies of the CPU (``wide_bvh``, ``trace/wide_bvh.py``) or Warp's own (CUDA).  Every compile-time flag the
 kernels test with ``wp.static`` is a property derived here, so no rule is stated twice.
 ``shadows.shadow_kernel`` and ``path.path_kernel`` build (and cache) one kernel per
 variant, each in its own Warp module (``module="unique"``): no reflection rays without
@@ -23,11 +24,13 @@ class TraceVariant:
 
     features: SceneFeatures = SceneFeatures()
     soft_shadows: bool = False
+    wide_bvh: bool = False
 
     @classmethod
-    def for_scene(cls, features: SceneFeatures, shadow_samples: int) -> TraceVariant:
-        """The smallest variant that renders a scene with ``features``."""
-        return cls(features=features.traced(), soft_shadows=shadow_samples > 1)
+    def for_scene(cls, features: SceneFeatures, shadow_samples: int, wide_bvh: bool = False) -> TraceVariant:
+        """The smallest variant that renders a scene with ``features`` (``wide_bvh``: query
+        the 4-wide BVH copies, as the CPU does)."""
+        return cls(features=features.traced(), soft_shadows=shadow_samples > 1, wide_bvh=wide_bvh)
 
     @property
     def shadows(self) -> bool:
@@ -83,6 +86,6 @@ class TraceVariant:
         """Whether this variant can render a scene with ``features``."""
         return not features.missing_from(self.features)
 
-    def shadow_key(self) -> tuple[bool, bool, bool]:
+    def shadow_key(self) -> tuple[bool, bool, bool, bool]:
         """The switches the primary shadow kernel depends on."""
-        return (self.layered_shadows, self.soft_shadows, self.cutouts)
+        return (self.layered_shadows, self.soft_shadows, self.cutouts, self.wide_bvh)

@@ -46,7 +46,7 @@ KEY_BYTES = 8
 HOST_BYTES_PER_PIXEL = 3 + 12 + 64
 #: Device bytes per triangle besides its arrays: the main BVH and the shadow BVHs.
 BVH_BYTES_PER_TRIANGLE = 128
-#: On the CPU, the tracer's 4-wide copies of those BVHs (``trace/wide_bvh.py``; 123-126
+#: On the CPU, the tracer's 4-wide copies of those BVHs (``scene/device/wide_bvh.py``; 123-126
 #: bytes a triangle measured on the shared scenes).
 WIDE_BVH_BYTES_PER_TRIANGLE = 128
 #: Texel mip chains add a third to every image (float4 texels).

@@ -109,7 +109,7 @@ class RenderSettings:
     the window (tracing, compose, post); the image is the same bit for bit.  Off by
     default (every frame pays its whole cost, as benchmarks of one frame's cost need);
     the replay and viewer commands turn it on.
-    ``wide_bvh``: the tracer queries 4-wide copies of the BVHs (``trace.wide_bvh``: the
+    ``wide_bvh``: the tracer queries 4-wide copies of the BVHs (``scene.device.wide_bvh``: the
     same answers, 2-3x faster on the CPU); None (default): on the CPU, not on CUDA, where
     it is refused; False keeps Warp's own queries everywhere (benchmarks compare the two).
     """

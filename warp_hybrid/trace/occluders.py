@@ -16,11 +16,12 @@ When every triangle is opaque the scene's own BVH serves as ``opaque`` and nothi
 is built.  Both meshes share the ``DeviceScene``'s points array, so after an animated
 update they are refitted, not rebuilt.
 
-With ``wide`` (the CPU's default, ``TraceSettings.wide_bvh``) each of the two, and the
-scene's own BVH (the path's closest hits), also has its 4-wide copy (``wide_bvh.WideBVH``:
-the same tree and answers, 2-3x faster queries), which that variant of the tracer
-queries instead (``TraceVariant.wide_bvh``); a refit copies the refitted boxes into
-them.  Without it (CUDA) they are empty and never read.
+With ``wide`` (the CPU's default, ``TraceSettings.wide_bvh``) each of the two also has
+its 4-wide copy (``scene/device/wide_bvh.WideBVH``: the same tree and answers, 2-3x
+faster queries), and ``scene_wide`` is the scene's own (``DeviceScene.wide_bvh``, the
+path's closest hits), which that variant of the tracer queries instead
+(``TraceVariant.wide_bvh``); a refit copies the refitted boxes into them.  Without it
+(CUDA) they are empty and never read.
 """
 
 from __future__ import annotations
@@ -29,8 +30,8 @@ import numpy as np
 import warp as wp
 
 from ..scene.device import DeviceScene
+from ..scene.device.wide_bvh import WideBVH, WideBVHGPU
 from ..scene.model import Material
-from .wide_bvh import WideBVH, WideBVHGPU
 
 
 @wp.struct
@@ -72,7 +73,7 @@ class Occluders:
         dev = scene.device
         self._meshes: list[wp.Mesh] = []
         g = OccluderGPU()
-        scene_wide = self._wide(scene.mesh, scene.scene.triangle_count)
+        scene_wide = scene.wide_bvh if wide else WideBVH(None, 0, dev)
         if self.special_count == 0:
             g.opaque = wp.uint64(scene.mesh.id if scene.mesh is not None else 0)
             g.special = wp.uint64(0)
@@ -85,7 +86,8 @@ class Occluders:
             opaque_wide = self._wide(opaque, int((~special).sum()))
             special_wide = self._wide(special_mesh, self.special_count)
             faces = np.flatnonzero(special).astype(np.int32)
-        self._wides = [w for w in (scene_wide, opaque_wide, special_wide) if w.node_count]
+        # the scene's own copy is refitted by its update, with its mesh
+        self._wides = [w for w in (opaque_wide, special_wide) if w.node_count and w is not scene_wide]
         self.special_faces = wp.array(faces, dtype=wp.int32, device=dev)
         g.special_faces = self.special_faces
         g.scene_wide, g.opaque_wide, g.special_wide = scene_wide.gpu, opaque_wide.gpu, special_wide.gpu
@@ -102,7 +104,7 @@ class Occluders:
 
     def _wide(self, mesh: wp.Mesh | None, triangles: int) -> WideBVH:
         """The 4-wide copy of ``mesh``; an empty one without ``wide`` or without a mesh."""
-        return WideBVH(mesh if self.wide else None, triangles)
+        return WideBVH(mesh if self.wide else None, triangles, self.scene.device)
 
     def matches(self, scene: DeviceScene) -> bool:
         """Whether these BVHs split ``scene``'s triangles as its materials do now (a
@@ -115,6 +117,6 @@ class Occluders:
         if self.scene.geometry_version != self._geometry_version:
             for mesh in self._meshes:
                 mesh.refit()
-            for wide in self._wides:  # the scene's BVH was refitted by its update
+            for wide in self._wides:
                 wide.refit()
             self._geometry_version = self.scene.geometry_version

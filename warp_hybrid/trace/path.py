@@ -52,13 +52,13 @@ from ..lighting.lights import light_sample
 from ..lighting.shading import diffuse_albedo, light_response, shade_surface
 from ..scene.device.environment import environment_radiance
 from ..scene.device.surface import SurfaceHit, is_cut_away, surface_at
+from ..scene.device.wide_bvh import wide_closest
 from .occluders import OccluderGPU
 from .offset import hit_bound, offset_ray_origin
 from .optics import make_transmission_func, mirror_direction, transmission_tint
 from .rays import MAX_LAYERS, MIN_THROUGHPUT, RayHit, TraceFrame, max3, step_past
 from .shadows import make_light_func
 from .variant import TraceVariant
-from .wide_bvh import wide_closest
 
 MAX_DEPTH = 8
 

@@ -36,11 +36,11 @@ from ..lighting.brdf import fresnel_dielectric
 from ..lighting.light_sampling import center_ray_length, light_has_extent, sample_light_ray
 from ..lighting.lights import LightSample, light_sample
 from ..scene.device.surface import is_cut_away, surface_at
+from ..scene.device.wide_bvh import wide_any_hit, wide_closest
 from .occluders import OccluderGPU
 from .offset import hit_bound, offset_ray_origin
 from .optics import transmission_tint
 from .rays import MAX_LAYERS, TraceFrame, TraceParams, is_emissive, max3, step_past
-from .wide_bvh import wide_any_hit, wide_closest
 
 
 @wp.struct

@@ -2,7 +2,7 @@
 
 A ``TraceVariant`` is the traced subset of ``SceneFeatures`` (``core/features.py``, the
 one table of effects) plus whether shadows are soft and which BVH queries run: the
-4-wide copies of the CPU (``wide_bvh``, ``trace/wide_bvh.py``) or Warp's own (CUDA).  Every compile-time flag the
+4-wide copies of the CPU (``wide_bvh``, ``scene/device/wide_bvh.py``) or Warp's own (CUDA).  Every compile-time flag the
 kernels test with ``wp.static`` is a property derived here, so no rule is stated twice.
 ``shadows.shadow_kernel`` and ``path.path_kernel`` build (and cache) one kernel per
 variant, each in its own Warp module (``module="unique"``): no reflection rays without

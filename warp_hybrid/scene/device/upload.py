@@ -44,6 +44,7 @@ from ...timing import StageTimer
 from ..model import Light, Material, Scene
 from .dome import build_ambient, dome_source, same_dome
 from .mipmaps import mip_chain
+from .wide_bvh import WideBVH
 
 
 def _struct_array(items: list, dtype: type, device: wp.context.Device) -> wp.array:
@@ -244,7 +245,17 @@ class DeviceScene:
             self._upload_dome(scene)
         with timer.stage("bvh_build"):
             self.mesh = wp.Mesh(points=self.points, indices=self.indices) if scene.triangle_count > 0 else None
+        self._wide: WideBVH | None = None
         self.gpu = self._make_struct()
+
+    @property
+    def wide_bvh(self) -> WideBVH:
+        """The 4-wide copy of ``mesh`` (``wide_bvh.py``), built on first use and refitted with
+        the mesh from then on; empty on CUDA, whose queries are Warp's own."""
+        if self._wide is None:
+            cpu_mesh = self.mesh if self.device.is_cpu else None
+            self._wide = WideBVH(cpu_mesh, self.scene.triangle_count if cpu_mesh is not None else 0, self.device)
+        return self._wide
 
     def _upload_materials(self, scene: Scene) -> None:
         self.materials = _struct_array([_material_gpu(m) for m in scene.materials], MaterialGPU, self.device)
@@ -319,6 +330,8 @@ class DeviceScene:
             self.points.assign(_f32(scene.points, 3))
             if self.mesh is not None:
                 self.mesh.refit()
+                if self._wide is not None:
+                    self._wide.refit()
             self.geometry_version += 1
             changed = True
         if scene.corner_normals is not old.corner_normals:

@@ -10,7 +10,7 @@ children, then the children of its largest child, until there are four or only l
 one 4-wide slab test (clang vector extensions, SSE on any x86-64), and copies each
 leaf's triangle corners into one array in leaf order.  Leaves keep Warp's triangles and
 its watertight triangle test (``intersect_ray_tri_woop``), so the answers are Warp's:
-the same face, distance and barycentrics (``tests/trace/test_wide_bvh.py``); a hit at
+the same face, distance and barycentrics (``tests/scene/device/test_wide_bvh.py``); a hit at
 exactly the same distance as another may be found in the other order.
 
 ``wide_closest`` is ``wp.mesh_query_ray`` (nearest hit, children visited near first,
@@ -24,7 +24,10 @@ closest hit 1242 ns with Warp's query, 498 ns with this one; a shadow ray's any-
 913 ns and 315 ns (README, "4-wide BVH copies").
 
 CPU only: the tracer's CUDA variant keeps Warp's own queries (``TraceVariant.wide_bvh``),
-and the native code compiles to a stub under ``__CUDA_ARCH__``.  After the mesh is
+and the native code compiles to a stub under ``__CUDA_ARCH__``.  The scene's own copy is
+``DeviceScene.wide_bvh`` (built on first use); the tracer's shadow BVHs have theirs
+(``trace/occluders.py``).  The ray-cast primaries (``--primary raycast``, the fovea
+sampler's window samples) still use Warp's query.  After the mesh is
 refitted (``wp.Mesh.refit``, animated points) ``refit`` copies the new boxes and
 corners; the tree's shape is Warp's and does not change on a refit.
 """
@@ -366,10 +369,11 @@ def wide_any_hit(bvh: WideBVHGPU, o: wp.vec3, d: wp.vec3, max_t: float) -> bool:
 class WideBVH:
     """The 4-wide copy of one CPU ``wp.Mesh``'s BVH (module docstring); ``gpu`` for kernels."""
 
-    def __init__(self, mesh: wp.Mesh | None, triangles: int) -> None:
-        """Collapse ``mesh``'s BVH (``triangles`` faces; None or 0: an empty tree)."""
+    def __init__(self, mesh: wp.Mesh | None, triangles: int, device: wp.context.Device | str | None = None) -> None:
+        """Collapse ``mesh``'s BVH (``triangles`` faces; None or 0: an empty tree, its
+        arrays on ``device``, default the mesh's or the CPU)."""
         self.mesh = mesh
-        dev = mesh.device if mesh is not None else wp.get_device("cpu")
+        dev = wp.get_device(device) if device is not None else mesh.device if mesh is not None else wp.get_device("cpu")
         g = WideBVHGPU()
         g.nodes = 0
         if mesh is None or triangles == 0:

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import warp as wp
 
-from warp_hybrid.trace.wide_bvh import WideBVH, WideBVHGPU, wide_any_hit, wide_closest
+from warp_hybrid.scene.device.wide_bvh import WideBVH, WideBVHGPU, wide_any_hit, wide_closest
 
 CPU = "cpu"
 

@@ -58,7 +58,7 @@ BVH_OPTION = (
     {
         "choices": ("wide", "warp"),
         "default": "wide",
-        "help": "the tracer's BVH queries: its 4-wide copies (default on the CPU) or Warp's own",
+        "help": "the BVH queries of the tracer and the ray-cast primaries: the 4-wide copies (default on the CPU) or Warp's own",
     },
 )
 

@@ -2,7 +2,9 @@
 
 For each scene at 640x480 (median of 5 after a warm-up): ms for load, upload, BVH
 build, raster, resolve, the attribute pass both paths share (surface), lighting, and
-for casting the primaries with ``wp.mesh_query_ray`` instead of raster + resolve;
+for casting the primaries instead of raster + resolve (``raycast``: through the scene's
+4-wide BVH copy on the CPU, Warp's query on CUDA; ``raycast warp``: through
+``wp.mesh_query_ray`` on the CPU too, alternating with the other in one process);
 the speed ratio of primary visibility; the share of pixels where the two
 G-buffers agree (depth within 1e-4 relative, same hit/miss); peak RSS; and, once per
 run, the cold start (every kernel compiled from an empty cache, first frame).
@@ -53,14 +55,21 @@ def measure_scene(path: str, width: int, height: int, repeats: int, device: str 
 
     cam = make_camera_gpu(camera, width, height)
     ray_gb = GBuffer(width, height, renderer.device)
-    caster = RayCaster(Launcher(renderer.device, renderer.launcher.threads))
+    launcher = Launcher(renderer.device, renderer.launcher.threads)
+    casters = {"raycast": RayCaster(launcher)}
+    if renderer.device.is_cpu:
+        casters["raycast_warp"] = RayCaster(launcher, wide_bvh=False)
 
     def cast() -> dict[str, float]:
-        timer = StageTimer()
-        caster.render(renderer.device_scene, cam, ray_gb, timer)
-        return {"raycast": timer.stages_ms["raycast"]}
+        out = {}
+        for name, caster in reversed(casters.items()):  # the default last: its G-buffer is compared
+            timer = StageTimer()
+            caster.render(renderer.device_scene, cam, ray_gb, timer)
+            out[name] = timer.stages_ms["raycast"]
+        return out
 
     stages.update(median_ms(cast, repeats))
+    stages.setdefault("raycast_warp", float("nan"))
     ray = ray_gb.aovs()
     hit_r, hit_c = np.isfinite(raster_gb["depth"]), np.isfinite(ray["depth"])
     both = hit_r & hit_c
@@ -120,6 +129,7 @@ def main() -> None:
         "surface_ms",
         "lighting_ms",
         "raycast_ms",
+        "raycast_warp_ms",
     ]
     print(
         f"| scene | {' | '.join(c.replace('_ms', ' ms') for c in cols)} | raster+resolve vs raycast | depth agree | ids agree | peak RSS MB |"

@@ -109,9 +109,9 @@ class RenderSettings:
     the window (tracing, compose, post); the image is the same bit for bit.  Off by
     default (every frame pays its whole cost, as benchmarks of one frame's cost need);
     the replay and viewer commands turn it on.
-    ``wide_bvh``: the tracer queries 4-wide copies of the BVHs (``scene.device.wide_bvh``: the
-    same answers, 2-3x faster on the CPU); None (default): on the CPU, not on CUDA, where
-    it is refused; False keeps Warp's own queries everywhere (benchmarks compare the two).
+    ``wide_bvh``: the tracer and the ray-cast primaries query 4-wide copies of the BVHs
+    (``scene.device.wide_bvh``: the same answers, 2-3x faster on the CPU); None
+    (default): on the CPU, not on CUDA, where it is refused; False keeps Warp's own queries everywhere (benchmarks compare the two).
     """
 
     width: int = 640
@@ -323,8 +323,8 @@ class Renderer:
         """The mode's passes, in frame order (the shadow maps first and the reflection
         probe next, where the raster layer is shaded and they are on)."""
         s = self.settings
-        primary_cls = Rasterizer if s.primary == "raster" else RayCaster
-        passes: list[RenderPass] = [primary_cls(self.launcher)]
+        primary = Rasterizer(self.launcher) if s.primary == "raster" else RayCaster(self.launcher, s.wide_bvh)
+        passes: list[RenderPass] = [primary]
         maps = ShadowMaps(self.launcher, s.shadow_map_size) if s.shadow_maps and s.mode != "full" else None
         probe = ReflectionProbe(self.launcher, maps) if s.probes and s.mode != "full" else None
         if probe is not None:

@@ -24,12 +24,14 @@ def render_gbuffer(
     device: str,
     path: str = "raster",
     threads: int = 1,
+    wide_bvh: bool | None = None,
 ) -> GBuffer:
-    """Render one G-buffer with the raster or ray-cast path."""
+    """Render one G-buffer with the raster or ray-cast path (``wide_bvh``: the ray
+    cast's query, as ``RenderSettings.wide_bvh``)."""
     ds = scene if isinstance(scene, DeviceScene) else DeviceScene(scene, device)
     gbuffer = GBuffer(width, height, device)
     with Launcher(device, threads=threads) as launcher:
-        renderer = Rasterizer(launcher) if path == "raster" else RayCaster(launcher)
+        renderer = Rasterizer(launcher) if path == "raster" else RayCaster(launcher, wide_bvh)
         renderer.render(ds, make_camera_gpu(camera, width, height), gbuffer, StageTimer())
     return gbuffer
 
@@ -55,7 +57,8 @@ def pixel_rays(camera: Camera, width: int, height: int) -> tuple[np.ndarray, np.
 
 @pytest.fixture
 def render() -> Callable[..., GBuffer]:
-    """``render(scene, camera, width, height, device, path="raster"|"raycast", threads=1)``."""
+    """``render(scene, camera, width, height, device, path="raster"|"raycast", threads=1,
+    wide_bvh=None)``."""
     return render_gbuffer
 
 

@@ -13,9 +13,11 @@
   (``coverage.py``) into the per-thread key buffer.
 * ``resolve_kernel`` (per pixel): the smallest key over the key slices names the
   nearest triangle; ``hit_record.exact_hit`` gives the pixel's hit record.
-* ``raycast_kernel`` (per pixel): the reference path, ``wp.mesh_query_ray`` through
-  each pixel centre from the near plane to the far plane, stepping past cut-away hits,
-  the same ``exact_hit`` on the face it finds.
+* ``raycast_kernel`` (per pixel): the reference path, the closest hit through each
+  pixel centre from the near plane to the far plane, stepping past cut-away hits, the
+  same ``exact_hit`` on the face it finds.  The BVH query is the scene's 4-wide copy
+  (``scene/device/wide_bvh.py``, the same answers) where the kernel is given a
+  non-empty one, else ``wp.mesh_query_ray``.
 * ``surface_kernel`` (per pixel): the surface pass both paths share: the material at
   the hit record, textures filtered over the pixel's footprint, into every other
   G-buffer channel.
@@ -39,6 +41,7 @@ from ..core.gbuffer import GBufferRows, Optics
 from ..core.pixel_list import listed_pixel
 from ..core.scene_gpu import SceneGPU
 from ..scene.device.surface import is_cut_away, surface_at_grad
+from ..scene.device.wide_bvh import WideBVHGPU, WideHit, wide_closest
 from .clipping import ProjectedPoints, in_guard_band, project, raster_clipped, to_camera
 from .coverage import EMPTY_KEY, RasterTarget, raster_triangle
 from .hit_record import exact_hit, pixel_footprint
@@ -248,34 +251,54 @@ def resolve_kernel(
             _write_hit_record(gb, y * cam.width + x, tri, exact_hit(scene, cam, tri, pixel_ray(cam, x, y)))
 
 
+@wp.func
+def _closest(scene: SceneGPU, wide: WideBVHGPU, o: wp.vec3, d: wp.vec3, max_t: float) -> WideHit:
+    """The nearest hit of ``o + t d``, 0 <= t < ``max_t``: through ``wide`` where it is
+    not empty, else ``wp.mesh_query_ray`` (the same answers)."""
+    if wide.nodes > 0:
+        return wide_closest(wide, o, d, max_t)
+    q = wp.mesh_query_ray(scene.mesh, o, d, max_t)
+    h = WideHit()
+    h.result = q.result
+    h.face = q.face
+    h.t = q.t
+    h.u = q.u
+    h.v = q.v
+    h.normal = q.normal
+    return h
+
+
 @wp.func(inline=True)
-def _cast(scene: SceneGPU, cam: CameraGPU, gb: GBufferRows, x: int, y: int):
-    """The ray-cast hit record of pixel (x, y), if its ray hits anything."""
+def _cast(scene: SceneGPU, wide: WideBVHGPU, cam: CameraGPU, gb: GBufferRows, x: int, y: int):
+    """The ray-cast hit record of pixel (x, y), if its ray hits anything (``_closest``)."""
     d = pixel_ray(cam, x, y)
     t_base = cam.near
     for _layer in range(MAX_CUTOUT_LAYERS):
-        q = wp.mesh_query_ray(scene.mesh, cam.origin + d * t_base, d, cam.far - t_base)
+        q = _closest(scene, wide, cam.origin + d * t_base, d, cam.far - t_base)
         if not q.result:
             return
         t = t_base + q.t
         if not is_cut_away(scene, q.face, q.u, q.v):
             # The BVH picks the face; depth and barycentrics are recomputed exactly from
-            # the camera origin (mesh_query_ray works relative to far-away corners in
-            # float32, off by up to tens of percent on 1e4-sized triangles seen up close).
+            # the camera origin (the query works relative to far-away corners in float32,
+            # off by up to tens of percent on 1e4-sized triangles seen up close).
             _write_hit_record(gb, y * cam.width + x, q.face, exact_hit(scene, cam, q.face, d))
             return
         t_base = t + 1.0e-5 * t
 
 
 @wp.kernel
-def raycast_kernel(scene: SceneGPU, cam: CameraGPU, gb: GBufferRows, row0: int, row_step: int, cols: int):
-    """Per pixel: closest ``wp.mesh_query_ray`` hit between the near and far planes,
-    stepping past hits in cut-out holes -> the hit record."""
+def raycast_kernel(
+    scene: SceneGPU, wide: WideBVHGPU, cam: CameraGPU, gb: GBufferRows, row0: int, row_step: int, cols: int
+):
+    """Per pixel: the closest hit between the near and far planes (``wide``: the scene's
+    4-wide BVH copy, or an empty one for Warp's query), stepping past hits in cut-out
+    holes -> the hit record."""
     r, c = wp.tid()
     y = row0 + r * row_step
     if scene.mesh != wp.uint64(0):
         for x in range(c * cols, wp.min(c * cols + cols, cam.width)):
-            _cast(scene, cam, gb, x, y)
+            _cast(scene, wide, cam, gb, x, y)
 
 
 @wp.kernel
@@ -293,17 +316,24 @@ def surface_kernel(scene: SceneGPU, cam: CameraGPU, gb: GBufferRows, row0: int, 
 
 @wp.kernel
 def listed_primary_kernel(
-    scene: SceneGPU, cam: CameraGPU, gb: GBufferRows, pixels: wp.array(dtype=wp.int32), start: int, step: int
+    scene: SceneGPU,
+    wide: WideBVHGPU,
+    cam: CameraGPU,
+    gb: GBufferRows,
+    pixels: wp.array(dtype=wp.int32),
+    start: int,
+    step: int,
 ):
     """Per listed pixel (item ``start + tid * step``): the ray-cast hit record (triangle
-    id -1 on a miss) and, on a hit, the surface channels; other pixels are untouched."""
+    id -1 on a miss; ``wide`` as in ``raycast_kernel``) and, on a hit, the surface
+    channels; other pixels are untouched."""
     xy = listed_pixel(pixels, start + wp.tid() * step, cam.width, cam.height)
     if xy[0] < 0:
         return
     i = xy[1] * cam.width + xy[0]
     gb.triangle_id[i] = -1
     if scene.mesh != wp.uint64(0):
-        _cast(scene, cam, gb, xy[0], xy[1])
+        _cast(scene, wide, cam, gb, xy[0], xy[1])
     tri = gb.triangle_id[i]
     if tri >= 0:
         _write_surface(gb, i, scene, cam, tri, gb.barycentric[i], pixel_ray(cam, xy[0], xy[1]))

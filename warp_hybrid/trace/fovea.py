@@ -73,6 +73,7 @@ class FoveaSampler(RenderPass):
         self._scratch(w, h, b.visibility.shape[2])
         region = frame.region
         self.tracer.begin_frame(w, h)
+        wide = self.scene.query_bvh(self.tracer.wide_bvh).gpu
         b.visibility.fill_(float("nan"))
         for k, (sx, sy) in enumerate(self.offsets):
             camera = make_camera_gpu(frame.view, w, h, sample=(sx, sy), sample_step=self.step)
@@ -80,7 +81,7 @@ class FoveaSampler(RenderPass):
                 self.launcher.launch_items(
                     primary_kernels.listed_primary_kernel,
                     region.count,
-                    [self.scene.gpu, camera, self._gbuffer.rows(), region.pixels],
+                    [self.scene.gpu, wide, camera, self._gbuffer.rows(), region.pixels],
                 )
             frame.rays = self.tracer.trace(
                 self.scene,

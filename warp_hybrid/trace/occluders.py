@@ -73,7 +73,7 @@ class Occluders:
         dev = scene.device
         self._meshes: list[wp.Mesh] = []
         g = OccluderGPU()
-        scene_wide = scene.wide_bvh if wide else self._wide(None, 0)
+        scene_wide = scene.query_bvh(wide)
         if self.special_count == 0:
             g.opaque = wp.uint64(scene.mesh.id if scene.mesh is not None else 0)
             g.special = wp.uint64(0)

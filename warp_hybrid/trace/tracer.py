@@ -42,6 +42,7 @@ from ..core.passes import FrameContext, RenderPass
 from ..errors import RenderSettingsError
 from ..parallel import MIN_BAND_ITEMS, BandLaunch, Launcher, band, band_count
 from ..scene.device import DeviceScene
+from ..scene.device.wide_bvh import use_wide_bvh
 from ..timing import StageTimer
 from .occluders import Occluders
 from .path import COUNT_COLUMNS, MAX_DEPTH, path_kernel
@@ -99,13 +100,12 @@ class Tracer(RenderPass):
         settings.validate()
         self.launcher = launcher
         self.settings = settings
-        self._wide = launcher.device.is_cpu if settings.wide_bvh is None else bool(settings.wide_bvh)
-        if self._wide and not launcher.device.is_cpu:
-            raise RenderSettingsError(f"the 4-wide BVH copies are CPU only, not for {launcher.device.alias}")
+        #: Whether the queries use the 4-wide BVH copies (``use_wide_bvh``).
+        self.wide_bvh = use_wide_bvh(settings.wide_bvh, launcher.device)
         self.fixed_features = features
         self.variant: TraceVariant | None = None
         if features is not None:
-            self._use_variant(TraceVariant.for_scene(features, settings.shadow_samples, self._wide))
+            self._use_variant(TraceVariant.for_scene(features, settings.shadow_samples, self.wide_bvh))
         self._transmittance: wp.array | None = None
         self._counts: wp.array | None = None
         self._occluders: Occluders | None = None
@@ -157,7 +157,7 @@ class Tracer(RenderPass):
         covers its features, and its shadow BVHs.  Raises ``ValueError`` when the tracer
         was built for fixed features the scene exceeds."""
         if self.fixed_features is None:
-            needed = TraceVariant.for_scene(scene.features, self.settings.shadow_samples, self._wide)
+            needed = TraceVariant.for_scene(scene.features, self.settings.shadow_samples, self.wide_bvh)
             if self.variant is None or not self.variant.covers(scene.features):
                 self._use_variant(needed)
         else:
@@ -175,7 +175,7 @@ class Tracer(RenderPass):
         refitted when its points moved."""
         if self._occluders is None or not self._occluders.matches(scene):
             with timer.stage("trace_setup"):
-                self._occluders = Occluders(scene, wide=self._wide)
+                self._occluders = Occluders(scene, wide=self.wide_bvh)
         else:
             self._occluders.refresh()
         return self._occluders

@@ -246,6 +246,7 @@ class DeviceScene:
         with timer.stage("bvh_build"):
             self.mesh = wp.Mesh(points=self.points, indices=self.indices) if scene.triangle_count > 0 else None
         self._wide: WideBVH | None = None
+        self._no_wide: WideBVH | None = None
         self.gpu = self._make_struct()
 
     @property
@@ -256,6 +257,16 @@ class DeviceScene:
             cpu_mesh = self.mesh if self.device.is_cpu else None
             self._wide = WideBVH(cpu_mesh, self.scene.triangle_count if cpu_mesh is not None else 0, self.device)
         return self._wide
+
+    def query_bvh(self, wide: bool) -> WideBVH:
+        """The copy a pass that queries the scene passes to its kernels: ``wide_bvh``
+        with ``wide`` (``wide_bvh.use_wide_bvh``), else an empty one, whose kernels then
+        use Warp's own query on ``mesh``."""
+        if wide:
+            return self.wide_bvh
+        if self._no_wide is None:
+            self._no_wide = WideBVH(None, 0, self.device)
+        return self._no_wide
 
     def _upload_materials(self, scene: Scene) -> None:
         self.materials = _struct_array([_material_gpu(m) for m in scene.materials], MaterialGPU, self.device)

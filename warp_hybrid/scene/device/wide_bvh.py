@@ -26,8 +26,9 @@ closest hit 1242 ns with Warp's query, 498 ns with this one; a shadow ray's any-
 CPU only: the tracer's CUDA variant keeps Warp's own queries (``TraceVariant.wide_bvh``),
 and the native code compiles to a stub under ``__CUDA_ARCH__``.  The scene's own copy is
 ``DeviceScene.wide_bvh`` (built on first use); the tracer's shadow BVHs have theirs
-(``trace/occluders.py``).  The ray-cast primaries (``--primary raycast``, the fovea
-sampler's window samples) still use Warp's query.  After the mesh is
+(``trace/occluders.py``); the ray-cast primaries (``--primary raycast``, the fovea
+sampler's window samples) query the scene's copy too.  ``use_wide_bvh`` is the one rule
+for whether a pass queries the copies.  After the mesh is
 refitted (``wp.Mesh.refit``, animated points) ``refit`` copies the new boxes and
 corners; the tree's shape is Warp's and does not change on a refit.
 """
@@ -35,6 +36,8 @@ corners; the tree's shape is Warp's and does not change on a refit.
 from __future__ import annotations
 
 import warp as wp
+
+from ...errors import RenderSettingsError
 
 #: Children per node.
 WIDTH = 4
@@ -364,6 +367,16 @@ def wide_any_hit(bvh: WideBVHGPU, o: wp.vec3, d: wp.vec3, max_t: float) -> bool:
     """Whether the ray ``o + t d`` hits any triangle at 0 <= t < ``max_t``
     (``wp.mesh_query_ray_anyhit``)."""
     return _any(bvh.boxes, bvh.children, bvh.leaves, bvh.corners, bvh.faces, bvh.nodes, o, d, max_t)
+
+
+def use_wide_bvh(setting: bool | None, device: wp.context.Device) -> bool:
+    """Whether passes on ``device`` query the 4-wide copies for the setting
+    ``wide_bvh`` (``RenderSettings``/``TraceSettings``): None means on the CPU, not on
+    CUDA; True on CUDA raises ``RenderSettingsError`` (the copies are CPU only)."""
+    wide = device.is_cpu if setting is None else bool(setting)
+    if wide and not device.is_cpu:
+        raise RenderSettingsError(f"the 4-wide BVH copies are CPU only, not for {device.alias}")
+    return wide
 
 
 class WideBVH:

@@ -46,8 +46,9 @@ KEY_BYTES = 8
 HOST_BYTES_PER_PIXEL = 3 + 12 + 64
 #: Device bytes per triangle besides its arrays: the main BVH and the shadow BVHs.
 BVH_BYTES_PER_TRIANGLE = 128
-#: On the CPU, the tracer's 4-wide copies of those BVHs (``scene/device/wide_bvh.py``; 123-126
-#: bytes a triangle measured on the shared scenes).
+#: On the CPU, the 4-wide copies of those BVHs the tracer and the ray-cast primaries
+#: query (``scene/device/wide_bvh.py``; 123-126 bytes a triangle measured on the
+#: shared scenes).
 WIDE_BVH_BYTES_PER_TRIANGLE = 128
 #: Texel mip chains add a third to every image (float4 texels).
 MIP_FACTOR = 4.0 / 3.0

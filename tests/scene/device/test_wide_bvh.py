@@ -144,15 +144,22 @@ def test_a_refit_copies_the_moved_boxes_and_corners() -> None:
     _assert_same_answers(mesh, wide, o, d, max_t)
 
 
-@pytest.mark.parametrize("triangles", [1, 3, 5])
-def test_a_mesh_of_one_leaf(triangles: int) -> None:
-    """A mesh whose whole tree is one leaf (Warp's root is the leaf) answers as Warp's."""
+@pytest.mark.parametrize(("triangles", "leaf_size"), [(1, 4), (3, 4), (5, 4), (7, 8), (9, 16)])
+def test_a_mesh_of_one_node(triangles: int, leaf_size: int) -> None:
+    """A mesh whose whole tree is one node answers as Warp's, with leaves of one to nine
+    triangles (a leaf's triangles are tested four at a time, the last group short)."""
     rng = np.random.default_rng(triangles)
     points = rng.uniform(0.0, 1.0, (3 * triangles, 3)).astype(np.float32)
     indices = np.arange(3 * triangles, dtype=np.int32)
-    mesh = wp.Mesh(wp.array(points, dtype=wp.vec3, device=CPU), wp.array(indices, dtype=wp.int32, device=CPU))
+    mesh = wp.Mesh(
+        wp.array(points, dtype=wp.vec3, device=CPU),
+        wp.array(indices, dtype=wp.int32, device=CPU),
+        bvh_leaf_size=leaf_size,
+    )
     wide = WideBVH(mesh, triangles)
     assert wide.node_count == 1
+    if leaf_size > 4:  # one leaf of more than four triangles: two or three groups
+        assert wide.gpu.leaves.numpy().tolist() == [0, triangles]
     o = rng.uniform(-0.5, 1.5, (4000, 3)).astype(np.float32)
     d = (0.5 - o) + rng.normal(0.0, 0.3, (4000, 3)).astype(np.float32)
     d = (d / np.linalg.norm(d, axis=1)[:, None]).astype(np.float32)

@@ -9,7 +9,9 @@ children, then the children of its largest child, until there are four or only l
 -- whose boxes are stored as six 4-lane rows (low and high x, y, z), so one node is
 one 4-wide slab test (clang vector extensions, SSE on any x86-64), and copies each
 leaf's triangle corners into one array in leaf order.  Leaves keep Warp's triangles and
-its watertight triangle test (``intersect_ray_tri_woop``), so the answers are Warp's:
+its watertight triangle test (``intersect_ray_tri_woop``), the ray's part of it once per
+ray and the triangle's part for four of a leaf's triangles at once, each lane Warp's
+arithmetic operation for operation, so the answers are Warp's:
 the same face, distance and barycentrics (``tests/scene/device/test_wide_bvh.py``); a hit at
 exactly the same distance as another may be found in the other order.
 
@@ -205,6 +207,7 @@ _TRAVERSE = """
 return MISS;
 #else
 typedef float v4f __attribute__((ext_vector_type(4)));
+typedef int v4i __attribute__((ext_vector_type(4)));
 if (nodes <= 0) return MISS;
 const float* nb = boxes.data;
 const int* nc = children.data;
@@ -223,11 +226,22 @@ auto flat_slab = [](v4f& t0, v4f& t1, const float* lo, const float* hi, float or
     }
 };
 const float widen = 1.0f + 2.0f * (3.0f * 5.96046448e-08f) / (1.0f - 3.0f * 5.96046448e-08f);
+// Warp's watertight triangle test (wp::intersect_ray_tri_woop), its ray part once per ray
+// (the axis permutation and shear) and its triangle part for four triangles of a leaf at a
+// time, each lane the same operations as Warp's scalar code, so each lane's answer is Warp's.
+int kz = wp::max_dim(d);
+int kx = kz + 1;
+if (kx == 3) kx = 0;
+int ky = kx + 1;
+if (ky == 3) ky = 0;
+if (d[kz] < 0.0f) { const int tmp = kx; kx = ky; ky = tmp; }
+const float Sx = d[kx] / d[kz];
+const float Sy = d[ky] / d[kz];
+const float Sz = 1.0f / d[kz];
 const int none = (int)0x80000000;
 float best = max_t;
 int best_k = -1;
 float best_u = 0.0f, best_v = 0.0f;
-wp::vec3 best_n;
 int stack[STACK];
 float stack_t[STACK];
 int sp = 0;
@@ -266,15 +280,54 @@ while (true) {
     }
     if (cur != none) {
         const int leaf = -cur - 1;
-        for (int k = lv[2 * leaf]; k < lv[2 * leaf + 1]; ++k) {
-            const float* t = tv + 9 * k;
-            float tt, uu, vv, sg;
-            wp::vec3 nn;
-            if (wp::intersect_ray_tri_woop(o, d, wp::vec3(t[0], t[1], t[2]), wp::vec3(t[3], t[4], t[5]),
-                                           wp::vec3(t[6], t[7], t[8]), tt, uu, vv, sg, &nn)) {
-                if (tt < best && tt >= 0.0f) {
+        const int leaf_end = lv[2 * leaf + 1];
+        for (int g = lv[2 * leaf]; g < leaf_end; g += 4) {
+            const int n = leaf_end - g < 4 ? leaf_end - g : 4;
+            v4f Ax, Ay, Az, Bx, By, Bz, Cx, Cy, Cz;
+            for (int j = 0; j < 4; ++j) {
+                const float* t = tv + 9 * (g + (j < n ? j : 0));  // a spare lane repeats the first
+                Ax[j] = t[kx] - o[kx]; Ay[j] = t[ky] - o[ky]; Az[j] = t[kz] - o[kz];
+                Bx[j] = t[3 + kx] - o[kx]; By[j] = t[3 + ky] - o[ky]; Bz[j] = t[3 + kz] - o[kz];
+                Cx[j] = t[6 + kx] - o[kx]; Cy[j] = t[6 + ky] - o[ky]; Cz[j] = t[6 + kz] - o[kz];
+            }
+            const v4f ax = Ax - Sx * Az, ay = Ay - Sy * Az;
+            const v4f bx = Bx - Sx * Bz, by = By - Sy * Bz;
+            const v4f cx = Cx - Sx * Cz, cy = Cy - Sy * Cz;
+            auto diff_product = [](v4f a, v4f b, v4f c, v4f e) {
+                const v4f ce = c * e;
+                return __builtin_elementwise_fma(a, b, -ce) + __builtin_elementwise_fma(-c, e, ce);
+            };
+            v4f U = diff_product(cx, by, cy, bx);
+            v4f V = diff_product(ax, cy, ay, cx);
+            v4f W = diff_product(bx, ay, by, ax);
+            // Warp's fallback where an edge function is exactly zero: the products in double
+            const v4i zero = (U == 0.0f) | (V == 0.0f) | (W == 0.0f);
+            if (__builtin_reduce_or(zero)) {
+                for (int j = 0; j < n; ++j) {
+                    if (zero[j]) {
+                        U[j] = (float)((double)cx[j] * (double)by[j] - (double)cy[j] * (double)bx[j]);
+                        V[j] = (float)((double)ax[j] * (double)cy[j] - (double)ay[j] * (double)cx[j]);
+                        W[j] = (float)((double)bx[j] * (double)ay[j] - (double)by[j] * (double)ax[j]);
+                    }
+                }
+            }
+            const v4i outside = ((U < 0.0f) | (V < 0.0f) | (W < 0.0f)) & ((U > 0.0f) | (V > 0.0f) | (W > 0.0f));
+            const v4f det = U + V + W;
+            const v4f az = Sz * Az, bz = Sz * Bz, cz = Sz * Cz;
+            const v4f T = U * az + V * bz + W * cz;
+            // wp::xorf(T, wp::sign_mask(det)) < 0: T carrying det's sign bit, compared as a float
+            const v4i det_sign = __builtin_bit_cast(v4i, det) & (int)0x80000000;
+            const v4i behind = __builtin_bit_cast(v4f, __builtin_bit_cast(v4i, T) ^ det_sign) < 0.0f;
+            v4i keep = ~outside & (det != 0.0f) & ~behind;
+            if (!__builtin_reduce_or(keep)) continue;
+            const v4f rcp = 1.0f / det;
+            const v4f tt = T * rcp;
+            keep &= (tt < best) & (tt >= 0.0f);
+            if (!__builtin_reduce_or(keep)) continue;
+            for (int j = 0; j < n; ++j) {  // in leaf order, as Warp's loop
+                if (keep[j] && tt[j] < best) {
                     if (ANY) return HIT;
-                    best = tt; best_k = k; best_u = uu; best_v = vv; best_n = nn;
+                    best = tt[j]; best_k = g + j; best_u = U[j] * rcp[j]; best_v = V[j] * rcp[j];
                 }
             }
         }
@@ -299,7 +352,9 @@ _CLOSEST = (
     .replace("if (ANY) return HIT;", "")
     .replace(
         "FOUND",
-        "[&] { const wp::vec3 n = wp::normalize(best_n); wp::vec_t<8, float> r; r[0] = (float)faces.data[best_k];"
+        "[&] { const float* t = tv + 9 * best_k; const wp::vec3 a(t[0], t[1], t[2]);"
+        " const wp::vec3 n = wp::normalize(wp::cross(wp::vec3(t[3], t[4], t[5]) - a, wp::vec3(t[6], t[7], t[8]) - a));"
+        " wp::vec_t<8, float> r; r[0] = (float)faces.data[best_k];"
         " r[1] = best; r[2] = best_u; r[3] = best_v; r[4] = n[0]; r[5] = n[1]; r[6] = n[2]; r[7] = 1.0f; return r; }()",
     )
 )

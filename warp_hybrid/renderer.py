@@ -111,7 +111,8 @@ class RenderSettings:
     the replay and viewer commands turn it on.
     ``wide_bvh``: the tracer and the ray-cast primaries query 4-wide copies of the BVHs
     (``scene.device.wide_bvh``: the same answers, 2-3x faster on the CPU); None
-    (default): on the CPU, not on CUDA, where it is refused; False keeps Warp's own queries everywhere (benchmarks compare the two).
+    (default): on the CPU, not on CUDA, where it is refused; False keeps Warp's own
+    queries everywhere (benchmarks compare the two).
     """
 
     width: int = 640

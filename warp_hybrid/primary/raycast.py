@@ -2,9 +2,9 @@
 
 One closest-hit query per pixel centre, from the near plane to the far plane, stepping
 past hits in alpha cut-out holes (stage "raycast"; ``kernels.raycast_kernel``).  The
-query is the scene's 4-wide BVH copy (``DeviceScene.wide_bvh``: Warp's answers, about
-2.5x faster) where ``wide_bvh`` resolves on (``wide_bvh.use_wide_bvh``: the CPU's
-default), else ``wp.mesh_query_ray``.
+query is the scene's 4-wide BVH copy (``DeviceScene.wide_bvh``: Warp's answers, the
+stage 1.6-2.3x faster, ``scripts/bench_raster.py``) where ``wide_bvh`` resolves on
+(``wide_bvh.use_wide_bvh``: the CPU's default), else ``wp.mesh_query_ray``.
 """
 
 from __future__ import annotations

@@ -224,8 +224,9 @@ def rect_irradiance_factor(p: wp.vec3, n: wp.vec3, light: LightGPU) -> float:
 
 
 @wp.func(inline=True)
-def light_sample(light: LightGPU, p: wp.vec3, n: wp.vec3) -> LightSample:
-    """Direction, distance and irradiance terms of ``light`` at point ``p`` (normal ``n``)."""
+def _light_sample(light: LightGPU, p: wp.vec3, n: wp.vec3, exact: bool) -> LightSample:
+    """``light_sample``; without ``exact`` a rect light's irradiance is its exact value only
+    where the centre terms leave ``light_reaches`` undecided (``reach_sample``)."""
     out = LightSample()
     zero = wp.vec3(0.0, 0.0, 0.0)
     if light.kind == KIND_DISTANT:
@@ -271,8 +272,43 @@ def light_sample(light: LightGPU, p: wp.vec3, n: wp.vec3) -> LightSample:
     cos_e = wp.max(-wp.dot(light.direction, wi), 0.0)
     point_factor = wp.min(area * cos_e / wp.max(d2, 1.0e-20), PI)
     out.e_normal = radiance * (point_factor * cone)
+    out.irradiance = out.e_normal * cos_n
     if light.kind == KIND_RECT:
-        out.irradiance = radiance * (rect_irradiance_factor(p, n, light) * cone)
-    else:
-        out.irradiance = out.e_normal * cos_n
+        if exact or not _centre_reaches(out.e_normal, cos_n):
+            out.irradiance = radiance * (rect_irradiance_factor(p, n, light) * cone)
     return out
+
+
+@wp.func(inline=True)
+def light_sample(light: LightGPU, p: wp.vec3, n: wp.vec3) -> LightSample:
+    """Direction, distance and irradiance terms of ``light`` at point ``p`` (normal ``n``)."""
+    return _light_sample(light, p, n, True)
+
+
+@wp.func(inline=True)
+def reach_sample(light: LightGPU, p: wp.vec3, n: wp.vec3) -> LightSample:
+    """``light_sample`` for a caller that reads the irradiance only through
+    ``light_reaches`` (shadow rays, shadow-map visibility): the same ``wi``, ``distance``
+    and ``e_normal``, and the same answer from ``light_reaches``, but a rect light's exact
+    irradiance (the horizon-clipped polygon, the costly part) is computed only where the
+    centre terms do not already show the light reaching ``p``; elsewhere ``irradiance``
+    is the centre's point value."""
+    return _light_sample(light, p, n, False)
+
+
+@wp.func(inline=True)
+def _centre_reaches(e_normal: wp.vec3, n_dot_l: float) -> bool:
+    """The light's centre lies above the horizon of ``p`` and gives it light."""
+    return n_dot_l > 0.0 and wp.max(e_normal[0], wp.max(e_normal[1], e_normal[2])) > 0.0
+
+
+@wp.func(inline=True)
+def light_reaches(ls: LightSample, n: wp.vec3) -> bool:
+    """The light contributes at all at a point with normal ``n`` (its unshadowed
+    response is non-zero): some irradiance on the surface, or its centre above the
+    horizon (the specular lobe's term).  The one rule for whether a shadow ray or a
+    shadow-map lookup is needed."""
+    irradiance = ls.irradiance
+    return wp.max(irradiance[0], wp.max(irradiance[1], irradiance[2])) > 0.0 or _centre_reaches(
+        ls.e_normal, wp.dot(n, ls.wi)
+    )

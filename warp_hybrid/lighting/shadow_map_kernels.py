@@ -45,7 +45,7 @@ from ..core.camera import CameraGPU
 from ..core.gbuffer import GBufferArrays
 from ..core.scene_gpu import FLAG_TRANSMISSIVE, SceneGPU
 from ..primary.clipping import project, to_camera
-from .lights import KIND_DISTANT, light_sample
+from .lights import KIND_DISTANT, light_reaches, reach_sample
 
 wp.set_module_options({"enable_backward": False})
 
@@ -189,9 +189,7 @@ def visibility_kernel(
             n = gb.normal[y, x]
             transmissive = (scene.materials[gb.material_id[y, x]].flags & FLAG_TRANSMISSIVE) != 0
             for i in range(scene.light_count):
-                ls = light_sample(scene.lights[i], p, n)
-                lit = wp.max(ls.irradiance) > 0.0 or (wp.dot(n, ls.wi) > 0.0 and wp.max(ls.e_normal) > 0.0)
                 v = float(0.0)
-                if lit:
+                if light_reaches(reach_sample(scene.lights[i], p, n), n):
                     v = shadow_visibility(scene, sm, i, p, gb.geometric_normal[y, x], transmissive)
                 visibility[y, x, i] = v

@@ -34,7 +34,7 @@ from ..core.pixel_list import listed_pixel
 from ..core.scene_gpu import FLAG_BLENDED, FLAG_CUTOUT, FLAG_TRANSMISSIVE, SceneGPU
 from ..lighting.brdf import fresnel_dielectric
 from ..lighting.light_sampling import center_ray_length, light_has_extent, sample_light_ray
-from ..lighting.lights import LightSample, light_sample
+from ..lighting.lights import LightSample, light_reaches, reach_sample
 from ..scene.device.surface import is_cut_away, surface_at
 from ..scene.device.wide_bvh import wide_any_hit, wide_closest
 from .occluders import OccluderGPU
@@ -60,12 +60,6 @@ def crossing_transmittance(scene: SceneGPU, face: int, u: float, v: float, d: wp
         return wp.vec3(a, a, a)
     f = fresnel_dielectric(wp.dot(h.geometric_normal, d), h.ior)
     return transmission_tint(h) * (1.0 - f)
-
-
-@wp.func
-def light_reaches(ls_irradiance: wp.vec3, ls_e_normal: wp.vec3, n_dot_l: float) -> bool:
-    """The light contributes at all (its unshadowed response is non-zero)."""
-    return max3(ls_irradiance) > 0.0 or (n_dot_l > 0.0 and max3(ls_e_normal) > 0.0)
 
 
 def _make_transmittance_func(layered: bool, cutouts: bool, wide: bool):
@@ -148,7 +142,7 @@ def make_light_func(layered: bool, soft: bool, cutouts: bool, wide: bool):
         out = ShadowResult()
         out.transmittance = wp.vec3(0.0, 0.0, 0.0)
         out.rays = 0
-        if not light_reaches(ls.irradiance, ls.e_normal, wp.dot(n, ls.wi)):
+        if not light_reaches(ls, n):
             return out
         light = scene.lights[light_index]
         samples = int(1)
@@ -207,7 +201,7 @@ def shadow_kernel(layered: bool, soft: bool, cutouts: bool, wide: bool) -> wp.Ke
         bound = hit_bound(scene, tf.gb.triangle_id[y, x])
         rays = int(0)
         for i in range(scene.light_count):
-            ls = light_sample(scene.lights[i], p, n)
+            ls = reach_sample(scene.lights[i], p, n)
             r = light_transmittance(scene, tf.params, tf.occ, i, ls, p, n, ng, bound, transmissive, pixel, 0)
             tf.transmittance[item, i] = r.transmittance
             visibility[y, x, i] = wp.clamp(luma709(r.transmittance), 0.0, 1.0)

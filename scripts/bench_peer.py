@@ -14,6 +14,13 @@ synchronised inside the timing):
   light's centre, or along a distant light): against ``trace_shadow`` in ``--mode full``.
 * **whitted**: primary, shadows, and one mirror bounce (and its shadows) where the hit's
   material reflects (metallic >= 0.5, or glass): against the whole ``--mode full`` frame.
+* **same bounce**: the Whitted frame with this project's rule for where a reflection ray
+  leaves (``path.py``: every smooth surface, roughness < ``SMOOTH_ROUGHNESS``, read per
+  pixel from the G-buffer, so textured roughness counts; and every transmissive one, which
+  also sends a ray on through it, as refraction does): against the ``--mode full`` frame
+  with ``max_depth`` 1 (one bounce, as Mitsuba's), the equal-work comparison.  Both sides'
+  ray counts are printed.  The default ``--mode full`` frame traces up to three bounces
+  where Mitsuba's Whitted frame, by its own rule, may trace none (a scene without metal).
 
 Rays are built on the host once (not timed).  Each scene runs in its own subprocess.
 
@@ -45,8 +52,19 @@ def _camera_rays(camera, width: int, height: int) -> tuple[np.ndarray, np.ndarra
     return o.astype(np.float32), d.astype(np.float32)
 
 
-def _mitsuba(scene, camera, width: int, height: int, repeats: int, threads: int) -> dict[str, float]:
-    """Mitsuba's primary, shadow and Whitted-style times (ms, medians)."""
+def _mitsuba(
+    scene,
+    camera,
+    width: int,
+    height: int,
+    repeats: int,
+    threads: int,
+    bounce_mask: np.ndarray,
+    through_mask: np.ndarray,
+) -> dict[str, float]:
+    """Mitsuba's primary, shadow and Whitted-style times (ms, medians), and the Whitted
+    frame whose bounce leaves from the pixels of ``bounce_mask`` ((H*W,) bool: reflection
+    rays) and, on through the surface, from those of ``through_mask`` (refraction rays)."""
     import drjit as dr
     import mitsuba as mi
 
@@ -110,14 +128,32 @@ def _mitsuba(scene, camera, width: int, height: int, repeats: int, threads: int)
         dr.sync_thread()
         return {"whitted": (time.perf_counter() - start) * 1000.0}
 
-    out = {"hit_share": hit_share}
-    for fn in (primary, shadow, whitted):
+    bounce_at = mi.Bool(bounce_mask)
+    through_at = mi.Bool(through_mask)
+
+    def same_bounce() -> dict[str, float]:
+        start = time.perf_counter()
+        si = mscene.ray_intersect(rays)
+        tests = shadows(si)
+        bounce = mscene.ray_intersect(si.spawn_ray(si.to_world(mi.reflect(si.wi))), active=si.is_valid() & bounce_at)
+        through = mscene.ray_intersect(si.spawn_ray(-si.to_world(si.wi)), active=si.is_valid() & through_at)
+        tests += shadows(bounce) + shadows(through)
+        dr.eval(si.p, si.sh_frame.n, si.uv, bounce.p, bounce.sh_frame.n, through.p, through.sh_frame.n, *tests)
+        dr.sync_thread()
+        return {"same_bounce": (time.perf_counter() - start) * 1000.0}
+
+    out = {
+        "hit_share": hit_share,
+        "rays": {"reflection": int(bounce_mask.sum()), "refraction": int(through_mask.sum())},
+    }
+    for fn in (primary, shadow, whitted, same_bounce):
         out.update(median_ms(fn, repeats, warmup=2))
     return out
 
 
 def measure_scene(path: str, width: int, height: int, repeats: int, bvh: str = "wide") -> dict:
     """This project's raster and full frames and Mitsuba's three passes on one scene."""
+    from warp_hybrid.core.constants import SMOOTH_ROUGHNESS
     from warp_hybrid.renderer import Renderer, RenderSettings
     from warp_hybrid.runtime import init_warp
     from warp_hybrid.scene.open import open_scene_source
@@ -126,19 +162,29 @@ def measure_scene(path: str, width: int, height: int, repeats: int, bvh: str = "
     scene = open_scene_source(path).scene_at(None)
     camera = scene.cameras[0]
     ours: dict[str, dict[str, float]] = {}
+    rays: dict[str, int] = {}
     threads, hit_share = 0, 0.0
-    for mode in ("raster", "full"):
-        settings = RenderSettings(width=width, height=height, mode=mode, wide_bvh=wide_bvh_setting(bvh))
+    transmissive = np.array([m.is_glass for m in scene.materials] + [False], dtype=bool)  # FLAG_TRANSMISSIVE
+    for key, mode, depth in (("raster", "raster", 3), ("full", "full", 3), ("full_depth1", "full", 1)):
+        settings = RenderSettings(
+            width=width, height=height, mode=mode, max_depth=depth, wide_bvh=wide_bvh_setting(bvh)
+        )
         with Renderer(scene, settings) as r:
             threads = r.launcher.threads
 
             def frame() -> dict[str, float]:
                 f = r.render(camera)
+                rays.update(f.stats.get("rays", {}))
                 return {**f.stats["stages_ms"], "frame": f.stats["frame_ms"]}
 
-            ours[mode] = median_ms(frame, repeats)
-            hit_share = float(r.buffers.gbuffer.hit_mask().mean())
-    peer = _mitsuba(scene, camera, width, height, repeats, threads)
+            ours[key] = median_ms(frame, repeats)
+            gb = r.buffers.gbuffer
+            hit_share = float(gb.hit_mask().mean())
+            hit = gb.hit_mask().ravel()
+            roughness = gb.channel_numpy("optics")[..., 3].ravel()
+            through = hit & transmissive[gb.material_id.numpy().ravel()]
+            bounce = hit & ((roughness < float(SMOOTH_ROUGHNESS)) | through)
+    peer = _mitsuba(scene, camera, width, height, repeats, threads, bounce, through)
     primary = sum(ours["raster"].get(s, 0.0) for s in PRIMARY_STAGES)
     return {
         "triangles": scene.triangle_count,
@@ -151,7 +197,9 @@ def measure_scene(path: str, width: int, height: int, repeats: int, bvh: str = "
             "raster_frame": ours["raster"]["frame"] / peer["primary"],
             "shadow": ours["full"].get("trace_shadow", 0.0) / peer["shadow"] if peer["shadow"] else 0.0,
             "full_frame": ours["full"]["frame"] / peer["whitted"],
+            "same_bounce": ours["full_depth1"]["frame"] / peer["same_bounce"],
         },
+        "rays_depth1": rays,
         "primary_ms": primary,
         "hit_share": hit_share,
     }
@@ -162,16 +210,20 @@ def main() -> None:
     args, width, height, results = run_per_scene(__doc__.splitlines()[0], __file__, measure_scene, options=[BVH_OPTION])
     print(
         "| scene | triangles | lights | G-buffer ms / Mitsuba primary ms | raster frame / primary | "
-        "trace_shadow ms / Mitsuba shadow ms | full frame ms / Mitsuba Whitted ms |"
+        "trace_shadow ms / Mitsuba shadow ms | full frame ms / Mitsuba Whitted ms | "
+        "full frame, max depth 1 / Mitsuba same bounce | reflection + refraction rays, ours / Mitsuba's |"
     )
-    print("|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|")
     for name, r in results.items():
         o, m, q = r["ours"], r["mitsuba"], r["ratios"]
         print(
             f"| {name} | {r['triangles']} | {r['lights']} | {r['primary_ms']:.1f} / {m['primary']:.1f} = "
             f"{q['primary']:.2f}x | {o['raster']['frame']:.1f} ms = {q['raster_frame']:.2f}x | "
             f"{o['full'].get('trace_shadow', 0.0):.1f} / {m['shadow']:.1f} = {q['shadow']:.2f}x | "
-            f"{o['full']['frame']:.1f} / {m['whitted']:.1f} = {q['full_frame']:.2f}x |"
+            f"{o['full']['frame']:.1f} / {m['whitted']:.1f} = {q['full_frame']:.2f}x | "
+            f"{o['full_depth1']['frame']:.1f} / {m['same_bounce']:.1f} = {q['same_bounce']:.2f}x | "
+            f"{r['rays_depth1'].get('reflection', 0) + r['rays_depth1'].get('refraction', 0)} / "
+            f"{m['rays']['reflection'] + m['rays']['refraction']} |"
         )
     threads = next(iter(results.values()))["threads"] if results else 0
     print(f"\n{width}x{height}, {threads} threads on both, median of {args.repeats} after a warm-up")

@@ -8,7 +8,7 @@ synchronised inside the timing):
 
 * **primary**: one camera ray per pixel centre through Mitsuba's BVH with the full
   surface interaction (position, shading frame, UVs, distance): against this project's
-  raster-mode G-buffer stages (``clear + raster + resolve + surface``) and the whole
+  raster-mode G-buffer stages (``raster + resolve + surface``) and the whole
   ``--mode raster`` frame, post included.
 * **shadow**: one shadow ray per pixel per light from the primary hits (toward a
   light's centre, or along a distant light): against ``trace_shadow`` in ``--mode full``.
@@ -35,7 +35,7 @@ import time
 import numpy as np
 from bench_common import BVH_OPTION, median_ms, run_per_scene, wide_bvh_setting
 
-PRIMARY_STAGES = ("clear", "raster", "resolve", "surface")
+PRIMARY_STAGES = ("raster", "resolve", "surface")
 
 
 def _camera_rays(camera, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:

@@ -15,7 +15,7 @@ from warp_hybrid.focus import FocusWindow
 from warp_hybrid.scene.model import Camera
 
 CORNELL = Path(__file__).resolve().parents[1] / "scenes" / "cornell_glass.usda"
-RASTER_STAGES = ("clear", "raster", "resolve", "surface", "lighting")
+RASTER_STAGES = ("raster", "resolve", "surface", "lighting")
 
 
 def _scene(blended: bool = False):

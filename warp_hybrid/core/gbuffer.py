@@ -62,6 +62,10 @@ CHANNELS: tuple[Channel, ...] = (
 )
 
 
+#: Each channel's background value by name (what a pixel that sees no surface holds).
+BACKGROUND: dict[str, float] = {c.name: c.background for c in CHANNELS}
+
+
 def _kernel_struct(name: str, ndim: int, doc: str) -> type:
     """A Warp struct with one ``ndim``-dimensional array per channel."""
     fields = {c.name: wp.array(dtype=c.dtype, ndim=ndim) for c in CHANNELS}
@@ -99,11 +103,11 @@ class GBuffer:
         """Every channel's array by name, in table order."""
         return dict(self._arrays)
 
-    def clear(self, part: int = 0, parts: int = 1) -> None:
-        """Write the background record into every pixel (each channel's ``background``);
-        ``part`` of ``parts`` clears only channels ``part, part + parts, ...`` (so host
-        threads can share the work: a clear is a memset, which releases the GIL)."""
-        for c in CHANNELS[part::parts]:
+    def clear(self) -> None:
+        """Write the background record into every pixel (each channel's ``background``).
+        A new buffer starts so; the primary passes write every pixel of every frame
+        (the background's values where no surface is hit), so frames need no clear."""
+        for c in CHANNELS:
             array = self._arrays[c.name]
             if c.background == 0.0:
                 array.zero_()

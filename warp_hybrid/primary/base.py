@@ -1,12 +1,14 @@
 """Primary visibility as one pass with two ways to find the nearest surface (Falcor's
 ``GBufferBase`` -> ``GBufferRaster`` / ``GBufferRT``).
 
-``PrimaryVisibility.render`` checks the sizes, clears the G-buffer to the background
-record (stage "clear", the channels shared between the host threads), lets the subclass write each pixel's hit record (``find_hits``: rasterized in
-``Rasterizer``, ray cast in ``RayCaster``), then runs the surface pass both share
+``PrimaryVisibility.render`` checks the sizes, lets the subclass write each pixel's hit
+record (``find_hits``: rasterized in ``Rasterizer``, ray cast in ``RayCaster``; the
+background's record where no surface is hit), then runs the surface pass both share
 (stage "surface": the material at each hit record, textures filtered over the pixel's
-footprint, into every other channel).  The lighting, tracing and composition stages
-never know which path ran.
+footprint, into every other channel; the background's values elsewhere).  Every pixel
+is written, so there is no clear first (stage "clear" no longer runs; its stats column
+stays, always 0).  The lighting, tracing and composition stages never know which path
+ran.
 """
 
 from __future__ import annotations
@@ -41,8 +43,6 @@ class PrimaryVisibility(RenderPass):
             raise ValueError(
                 f"camera is for {camera.width}x{camera.height} but the G-buffer is {gbuffer.width}x{gbuffer.height}"
             )
-        with timer.stage("clear"):
-            self.launcher.run(gbuffer.clear)
         self.find_hits(scene, camera, gbuffer, timer)
         with timer.stage("surface"):
             self.launcher.launch_pixels(
@@ -51,5 +51,5 @@ class PrimaryVisibility(RenderPass):
 
     @abstractmethod
     def find_hits(self, scene: DeviceScene, camera: CameraGPU, gbuffer: GBuffer, timer: StageTimer) -> None:
-        """Write the hit record (triangle, depth, barycentrics) of every pixel that sees
-        a surface; background pixels stay as cleared."""
+        """Write the hit record (triangle, depth, barycentrics) of every pixel: the
+        background's (``gbuffer.BACKGROUND``) where it sees no surface."""

@@ -26,9 +26,11 @@
   window (``trace.fovea``); a listed pixel that misses gets the background triangle id.
 
 The per-pixel kernels follow the launch layer's ``row0, row_step, cols`` convention
-(``parallel.Launcher.launch_pixels``) and write through ``GBufferRows``.  Background
-pixels are left as ``GBuffer.clear`` wrote them (the background record).  No back-face
-culling: the G-buffer must match the ray cast, which sees both sides.
+(``parallel.Launcher.launch_pixels``) and write through ``GBufferRows``.  Every pixel is
+written every frame, so the G-buffer needs no clear first: the hit-finding kernels
+write the background's hit record where no surface is hit, the surface kernel the
+background's other channels there (``gbuffer.BACKGROUND``, the channel table's values).
+No back-face culling: the G-buffer must match the ray cast, which sees both sides.
 """
 
 from __future__ import annotations
@@ -37,7 +39,7 @@ import warp as wp
 
 from ..core.camera import CameraGPU, pixel_ray
 from ..core.constants import luma709
-from ..core.gbuffer import GBufferRows, Optics
+from ..core.gbuffer import BACKGROUND, GBufferRows, Optics
 from ..core.pixel_list import listed_pixel
 from ..core.scene_gpu import SceneGPU
 from ..scene.device.surface import is_cut_away, surface_at_grad
@@ -199,6 +201,32 @@ def _write_hit_record(gb: GBufferRows, i: int, tri: int, hit: wp.vec3):
 
 
 @wp.func(inline=True)
+def _write_miss_record(gb: GBufferRows, i: int):
+    """Store the background's hit record at flat index ``i``."""
+    gb.triangle_id[i] = wp.static(int(BACKGROUND["triangle_id"]))
+    gb.depth[i] = wp.static(float(BACKGROUND["depth"]))
+    gb.barycentric[i] = wp.vec2(wp.static(float(BACKGROUND["barycentric"])))
+
+
+@wp.func(inline=True)
+def _write_background_surface(gb: GBufferRows, i: int):
+    """Store the background's value of every channel but the hit record at flat index ``i``."""
+    gb.position[i] = wp.vec3(wp.static(float(BACKGROUND["position"])))
+    gb.normal[i] = wp.vec3(wp.static(float(BACKGROUND["normal"])))
+    gb.geometric_normal[i] = wp.vec3(wp.static(float(BACKGROUND["geometric_normal"])))
+    gb.albedo[i] = wp.vec3(wp.static(float(BACKGROUND["albedo"])))
+    gb.specular[i] = wp.vec3(wp.static(float(BACKGROUND["specular"])))
+    gb.emission[i] = wp.vec3(wp.static(float(BACKGROUND["emission"])))
+    optics = Optics()
+    optics.reflectivity = wp.static(float(BACKGROUND["optics"]))
+    optics.ior = wp.static(float(BACKGROUND["optics"]))
+    optics.opacity = wp.static(float(BACKGROUND["optics"]))
+    optics.roughness = wp.static(float(BACKGROUND["optics"]))
+    gb.optics[i] = optics
+    gb.material_id[i] = wp.static(int(BACKGROUND["material_id"]))
+
+
+@wp.func(inline=True)
 def _textured(scene: SceneGPU, tri: int) -> bool:
     """Whether the triangle's material samples any texture."""
     m = scene.materials[scene.triangle_material[tri]]
@@ -249,6 +277,8 @@ def resolve_kernel(
         if key != EMPTY_KEY:
             tri = int(key & wp.uint64(0xFFFFFFFF))
             _write_hit_record(gb, y * cam.width + x, tri, exact_hit(scene, cam, tri, pixel_ray(cam, x, y)))
+        else:
+            _write_miss_record(gb, y * cam.width + x)
 
 
 @wp.func
@@ -293,18 +323,20 @@ def raycast_kernel(
 ):
     """Per pixel: the closest hit between the near and far planes (``wide``: the scene's
     4-wide BVH copy, or an empty one for Warp's query), stepping past hits in cut-out
-    holes -> the hit record."""
+    holes -> the hit record (the background's where nothing is hit)."""
     r, c = wp.tid()
     y = row0 + r * row_step
-    if scene.mesh != wp.uint64(0):
-        for x in range(c * cols, wp.min(c * cols + cols, cam.width)):
+    for x in range(c * cols, wp.min(c * cols + cols, cam.width)):
+        _write_miss_record(gb, y * cam.width + x)
+        if scene.mesh != wp.uint64(0):
             _cast(scene, wide, cam, gb, x, y)
 
 
 @wp.kernel
 def surface_kernel(scene: SceneGPU, cam: CameraGPU, gb: GBufferRows, row0: int, row_step: int, cols: int):
     """Per pixel: evaluate the surface named by the hit record (whichever primary path
-    wrote it) into the remaining G-buffer channels."""
+    wrote it) into the remaining G-buffer channels (the background's values where the
+    pixel sees no surface)."""
     r, c = wp.tid()
     y = row0 + r * row_step
     for x in range(c * cols, wp.min(c * cols + cols, cam.width)):
@@ -312,6 +344,8 @@ def surface_kernel(scene: SceneGPU, cam: CameraGPU, gb: GBufferRows, row0: int, 
         tri = gb.triangle_id[i]
         if tri >= 0:
             _write_surface(gb, i, scene, cam, tri, gb.barycentric[i], pixel_ray(cam, x, y))
+        else:
+            _write_background_surface(gb, i)
 
 
 @wp.kernel

@@ -47,7 +47,8 @@ LATER_STAGES = ("shadow_maps", "alpha_layer", "upsample", "probes", "reuse")
 #: Those of them that run after tracing (reserved behind the deadline as well).
 LATER_AFTER_TRACE_STAGES = ("upsample", "reuse")
 #: Every stage a frame can report (the stats CSV's stage columns): in frame order, then
-#: the stages added later, appended so the existing columns keep their places.
+#: the stages added later, appended so the existing columns keep their places.  "clear"
+#: no longer runs (the primary passes write every pixel); its column stays, always 0.
 FRAME_STAGES = (
     "scene_update",
     "refit",

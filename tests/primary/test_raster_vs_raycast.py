@@ -14,10 +14,10 @@ from warp_hybrid.scene.model import Camera, Material, Scene
 GBUFFER_FIELDS = tuple(c.name for c in CHANNELS)
 
 
-def _analytic_scene() -> tuple[Scene, Camera]:
+def _analytic_scene(rings: int = 24, segments: int = 48) -> tuple[Scene, Camera]:
     meshes = [
         quad((-6.0, 0.0, 6.0), (12.0, 0.0, 0.0), (0.0, 0.0, -12.0), 0, "/floor"),
-        uv_sphere((0.0, 0.8, 0.0), 0.8, rings=24, segments=48, material=1, name="/ball"),
+        uv_sphere((0.0, 0.8, 0.0), 0.8, rings=rings, segments=segments, material=1, name="/ball"),
         uv_sphere((1.6, 0.4, 0.9), 0.4, rings=12, segments=24, material=2, name="/small"),
         quad((-2.5, 0.0, -1.5), (1.2, 0.0, -0.6), (0.0, 1.8, 0.0), 2, "/panel"),
     ]
@@ -96,8 +96,9 @@ def test_raster_matches_raycast_on_shared_scenes(device: str, render, shared_sce
 
 
 @pytest.mark.parametrize("path", ["raster", "raycast"])
-def test_one_and_two_threads_give_identical_gbuffers(device: str, render, path: str) -> None:
-    scene, cam = _analytic_scene()
+@pytest.mark.parametrize("ball", [(24, 48), (6, 12)])  # 2884 triangles: bands of clusters; 724: bands of rows
+def test_one_and_two_threads_give_identical_gbuffers(device: str, render, path: str, ball: tuple[int, int]) -> None:
+    scene, cam = _analytic_scene(*ball)
     one = render(scene, cam, 96, 72, device, path, threads=1)
     two = render(scene, cam, 96, 72, device, path, threads=2)
     for name in GBUFFER_FIELDS:

@@ -46,11 +46,14 @@ NARROW_PX = wp.constant(4)
 @wp.struct
 class RasterTarget:
     """Where coverage goes: one thread's ``slot`` of the key buffer ``keys`` (threads,
-    H, W), written as depth keys (``MODE_DEPTH``) or fragment counts (``MODE_COUNT``)."""
+    H, W), written as depth keys (``MODE_DEPTH``) or fragment counts (``MODE_COUNT``),
+    in the rows ``row_begin`` up to ``row_end`` only (a thread's band of rows, or all)."""
 
     keys: wp.array3d(dtype=wp.uint64)
     slot: int
     mode: int
+    row_begin: int
+    row_end: int
 
 
 @wp.func_native("""union { float f; unsigned int u; } c; c.f = x; return (uint64_t)c.u;""")
@@ -113,7 +116,8 @@ def raster_triangle(
     target: RasterTarget,
 ):
     """Rasterize one projected triangle (screen x, screen y, view depth per corner)
-    into ``target``, sampled at the camera's sample point (see the module docstring)."""
+    into ``target`` (its rows only), sampled at the camera's sample point (see the
+    module docstring)."""
     shift_x = _fixed(0.5 - cam.sample[0])
     shift_y = _fixed(0.5 - cam.sample[1])
     ax = _fixed(a[0]) + shift_x
@@ -146,9 +150,9 @@ def raster_triangle(
     y0 = int((wp.min(wp.min(ay, by), cy) + HALF_SUBPIXEL - wp.int64(1)) >> wp.int64(8))
     y1 = int((wp.max(wp.max(ay, by), cy) - HALF_SUBPIXEL) >> wp.int64(8))
     x0 = wp.max(x0, 0)
-    y0 = wp.max(y0, 0)
+    y0 = wp.max(y0, target.row_begin)
     x1 = wp.min(x1, cam.width - 1)
-    y1 = wp.min(y1, cam.height - 1)
+    y1 = wp.min(y1, target.row_end - 1)
     if x0 > x1 or y0 > y1:
         return
     cutout = (scene.materials[scene.triangle_material[tri]].flags & FLAG_CUTOUT) != 0

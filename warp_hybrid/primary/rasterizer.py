@@ -8,9 +8,12 @@
   until the points move) is rasterized (``kernels.coverage_kernel``) into a *key buffer*
   of packed 64-bit keys (float32 view-depth bits << 32 | triangle id) with one atomic
   min per covered pixel centre (``coverage.py``).  On a CPU, Warp's atomics are plain
-  read-modify-writes and one launch runs on one thread, so the clusters are split
-  between the launcher's threads and each thread owns one slice of the buffer; the
-  resolve pass takes the minimum over the slices (no merge pass).
+  read-modify-writes and one launch runs on one thread, so the work is split between
+  the launcher's threads and each thread owns one slice of the buffer; the resolve pass
+  takes the minimum over the slices (no merge pass).  The clusters are split between
+  the threads (bands of clusters) unless there are fewer than ``MIN_BAND_CLUSTERS`` a
+  thread (a small scene, whose few large triangles cost their pixels, not their set-up):
+  then each thread takes every cluster and one band of the rows.
 * ``resolve``: per pixel, the winning triangle is intersected with the pixel's camera
   ray for exact depth and barycentrics: the hit record (``kernels.resolve_kernel``),
   the same one the ray-cast path writes.
@@ -82,36 +85,47 @@ class Rasterizer(PrimaryVisibility):
         return self._bounds
 
     def _rasterize(self, scene: DeviceScene, camera: CameraGPU, keys: wp.array, mode: int, clear: int) -> None:
-        """Transform the points, clear each thread's slice, then run the coverage kernel
-        over bands of clusters, each thread into its own slice (``Launcher.share``)."""
+        """Transform the points, then clear each thread's slice and run the coverage kernel
+        into it: over bands of clusters (``Launcher.share``), or, for fewer than
+        ``MIN_BAND_CLUSTERS`` clusters a thread (and on one thread), every cluster into
+        piece k's band of rows, piece k clearing and writing slice k (module docstring)."""
         launcher = self.launcher
         launcher.ensure_loaded(kernels.coverage_kernel)
         count = scene.scene.triangle_count
         pts = self._transform_points(scene, camera)
+        threads, height = keys.shape[0], keys.shape[1]
+        bounds = self._cluster_bounds(scene) if count > 0 else None
+        clusters = bounds.shape[0] if bounds is not None else 0
 
-        def clear_slice(k: int, _n: int) -> None:
-            keys[k].fill_(clear)
-
-        launcher.run(clear_slice, keys.shape[0])
-        if count == 0:
-            return
-        bounds = self._cluster_bounds(scene)
-        clusters = bounds.shape[0]
-
-        def inputs(slot: int) -> list:
+        def inputs(slot: int, rows: tuple[int, int] = (0, height)) -> list:
             target = RasterTarget()
             target.keys = keys
             target.slot = slot
             target.mode = mode
+            target.row_begin, target.row_end = rows
             return [scene.gpu, camera, pts, target, bounds, count]
 
+        if clusters < threads * MIN_BAND_CLUSTERS or threads == 1:
+
+            def clear_and_cover_rows(k: int, n: int) -> None:
+                # one piece, timed whole when profiling (the launch is not timed again)
+                keys[k].fill_(clear)
+                if clusters > 0:
+                    first, size = band(k, n, height)
+                    rows = inputs(k, (first, first + size))
+                    wp.launch(kernels.coverage_kernel, dim=clusters, inputs=[*rows, 0, 1], device=launcher.device)
+
+            launcher.run(clear_and_cover_rows, threads)
+            return
+
+        launcher.run(lambda k, _n: keys[k].fill_(clear), threads)
         run = BandLaunch(launcher, kernels.coverage_kernel, inputs)
 
         def cover_band(k: int, bands: int, slot: int) -> None:
             first, size = band(k, bands, clusters)
             run(slot, size, (first, 1), k == 0)
 
-        launcher.share(cover_band, band_count(clusters, keys.shape[0], MIN_BAND_CLUSTERS))
+        launcher.share(cover_band, band_count(clusters, threads, MIN_BAND_CLUSTERS))
 
     def find_hits(self, scene: DeviceScene, camera: CameraGPU, gbuffer: GBuffer, timer: StageTimer) -> None:
         """Rasterize ``scene`` seen by ``camera`` and resolve each pixel's hit record."""

@@ -118,7 +118,10 @@ class Rasterizer(PrimaryVisibility):
             launcher.run(clear_and_cover_rows, threads)
             return
 
-        launcher.run(lambda k, _n: keys[k].fill_(clear), threads)
+        def clear_slice(k: int, _n: int) -> None:
+            keys[k].fill_(clear)
+
+        launcher.run(clear_slice, threads)
         run = BandLaunch(launcher, kernels.coverage_kernel, inputs)
 
         def cover_band(k: int, bands: int, slot: int) -> None:

@@ -104,6 +104,27 @@ def test_a_window_moving_across_rows_redraws_only_what_changed(device: str) -> N
             np.testing.assert_array_equal(a.color, b.color, err_msg=f"frame {i}")
 
 
+def test_a_window_moving_across_columns_redraws_only_what_changed(device: str) -> None:
+    """On a wide frame, the window jumps between columns far apart: the cached renderer
+    redraws only the columns either window touched (FXAA's reach around them), and
+    every frame equals the uncached one."""
+    scene = _scene()
+    cam = scene.cameras[0]
+    gazes = [(0.1, 0.5), (0.9, 0.5), (0.5, 0.3), (0.1, 0.6), (0.12, 0.6)]
+    settings = {"width": 160, "height": 40, "exposure_ev": None, "threads": 2, "device": device}
+    with (
+        Renderer(scene, RenderSettings(cache_raster=True, **settings)) as cached,
+        Renderer(scene, RenderSettings(**settings)) as plain,
+    ):
+        for i, gaze in enumerate(gazes):
+            window = FocusWindow(gaze=gaze, fraction=0.05)
+            a, b = cached.render(cam, window), plain.render(cam, window)
+            cols = cached.buffers.color_cols
+            assert cols is not None and cols[1] - cols[0] < 60, cols  # the window's columns only
+            np.testing.assert_array_equal(a.image, b.image, err_msg=f"frame {i}")
+            np.testing.assert_array_equal(a.color, b.color, err_msg=f"frame {i}")
+
+
 @pytest.mark.parametrize("mode", ["raster", "full"])
 def test_the_cache_in_raster_and_full_modes(mode: str) -> None:
     """Raster mode keeps its frame for a still view (the same image again); full mode has

@@ -499,7 +499,7 @@ class Renderer:
         key = self._still_view_key(frame, spp)
         cached = key is not None and key == self._still_view
         frame.raster_cached = cached
-        frame.changed_rows = NO_ROWS if cached else None
+        frame.changed_rows = frame.changed_cols = NO_ROWS if cached else None
         self._still_view = None  # until this frame is whole
         if spp == 1:
             for p in self.passes:
@@ -578,7 +578,7 @@ class Renderer:
         self._primary.execute(frame)
         with frame.timer.stage("accumulate"):
             self._accumulator.average(spp, self.buffers.color, self.buffers.visibility)
-        self.buffers.color_rows = None
+        self.buffers.color_rows = self.buffers.color_cols = None
         post.execute(frame)
 
     @property

@@ -1,6 +1,6 @@
-"""Redrawing only the changed rows (``PostProcess.process(changed_rows=...)``): the same
-image bit for bit as drawing it whole, FXAA's reach included, and the whole image
-wherever the last call's result cannot be kept."""
+"""Redrawing only the changed rows and columns (``PostProcess.process(changed_rows=...,
+changed_cols=...)``): the same image bit for bit as drawing it whole, FXAA's reach
+included, and the whole image wherever the last call's result cannot be kept."""
 
 from __future__ import annotations
 
@@ -58,6 +58,19 @@ def test_changed_rows_redraw_the_same_image(device):
     assert changed.min() < BAND[0] - 10 or changed.max() >= BAND[1] + 10
     assert changed.min() >= BAND[0] - FXAA_REACH_PX and changed.max() < BAND[1] + FXAA_REACH_PX
     partial = _second_frame(device, first, second, exposure_ev=0.0, changed_rows=BAND)
+    np.testing.assert_array_equal(partial, whole)
+
+
+def test_changed_columns_redraw_the_same_image(device):
+    # the same edge on its side: a horizontal edge whose step moves along the columns
+    first, second = (np.ascontiguousarray(_edge_image(jog_row=j).transpose(1, 0, 2)) for j in BAND)
+    whole = _full(device, second)
+    changed = np.nonzero(np.any(whole != _full(device, first), axis=(0, 2)))[0]
+    assert changed.min() < BAND[0] - 10 or changed.max() >= BAND[1] + 10
+    partial = _second_frame(device, first, second, exposure_ev=0.0, changed_rows=(0, W), changed_cols=BAND)
+    np.testing.assert_array_equal(partial, whole)
+    # a rectangle: the rows around the edge and the band of columns
+    partial = _second_frame(device, first, second, exposure_ev=0.0, changed_rows=(28, 36), changed_cols=BAND)
     np.testing.assert_array_equal(partial, whole)
 
 

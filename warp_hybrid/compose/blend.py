@@ -64,11 +64,15 @@ class Compositor(RenderPass):
         assert frame.region is not None, "the focus pass runs first"
         b = frame.buffers
         rows = span_clip(frame.region.rows, b.height)
+        cols = span_clip(frame.region.cols, b.width)
         stale = b.color_rows if frame.raster_cached else None
-        b.color_rows = None  # until the blend is done
+        stale_cols = b.color_cols if frame.raster_cached else None
+        b.color_rows = b.color_cols = None  # until the blend is done
         self.blend(b.raster_color, b.traced_color, frame.region.weight, b.color, frame.timer, rows, stale)
-        b.color_rows = rows
+        b.color_rows, b.color_cols = rows, cols
+        # out differs from the raster layer only inside the window's columns, before and now
         frame.changed_rows = span_union(span_union(frame.changed_rows, stale), rows)
+        frame.changed_cols = span_union(span_union(frame.changed_cols, stale_cols), cols)
 
     def blend(
         self,

@@ -182,6 +182,7 @@ class TemporalReuse(RenderPass):
             ]
             self.launcher.launch_pixels(reuse_pixels, h, w, inputs)
             b.color_rows = frame.changed_rows = None  # reused pixels may lie anywhere
+            b.color_cols = frame.changed_cols = None
             wp.copy(nxt.depth, b.gbuffer.depth)
             wp.copy(nxt.normal, b.gbuffer.normal)
             nxt.gpu.cam = frame.camera

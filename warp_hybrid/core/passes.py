@@ -33,9 +33,9 @@ class FrameBuffers:
     the raster and traced radiance layers, the composed ``color`` (linear radiance
     before exposure), ``metered`` (the layer automatic exposure is metered on: ``color``
     unless the renderer says otherwise) and the per-light ``visibility`` AOV
-    (transmittance luminance, NaN where not traced).  ``color_rows`` says what ``color``
-    holds between frames: the only rows where it may differ from ``raster_color``
-    (None: any row; set by the passes that write ``color``)."""
+    (transmittance luminance, NaN where not traced).  ``color_rows`` and ``color_cols``
+    say what ``color`` holds between frames: the only rows and columns where it may
+    differ from ``raster_color`` (None: any; set by the passes that write ``color``)."""
 
     def __init__(self, width: int, height: int, lights: int, device: wp.context.Device) -> None:
         """Allocate every buffer for ``width`` x ``height`` and ``lights`` lights."""
@@ -49,6 +49,7 @@ class FrameBuffers:
         self.color = wp.zeros(shape, dtype=wp.vec3, device=device)
         self.metered = self.color
         self.color_rows: RowSpan | None = None
+        self.color_cols: RowSpan | None = None
         self.visibility = wp.full((height, width, lights), value=float("nan"), dtype=wp.float32, device=device)
 
     def fits(self, width: int, height: int, lights: int) -> bool:
@@ -67,9 +68,10 @@ class FrameContext:
     per-frame totals (the ray tally) start them at sample 0 only.  ``view`` is the scene
     camera ``camera`` was made from, for passes that sample other points in each pixel.
     ``raster_cached``: the raster layer (and the G-buffer) are the previous frame's, kept
-    for a still view (``RenderSettings.cache_raster``).  ``changed_rows``: the only rows
-    of ``buffers.color`` that can differ from the previous frame's (None: any row): none
-    where the raster layer was kept, then widened by each pass that writes ``color``."""
+    for a still view (``RenderSettings.cache_raster``).  ``changed_rows`` and
+    ``changed_cols``: the only rows and columns of ``buffers.color`` that can differ from
+    the previous frame's (None: any): none where the raster layer was kept, then widened
+    by each pass that writes ``color``."""
 
     camera: CameraGPU
     timer: StageTimer
@@ -84,6 +86,7 @@ class FrameContext:
     view: Camera | None = None
     raster_cached: bool = False
     changed_rows: RowSpan | None = None
+    changed_cols: RowSpan | None = None
 
     @property
     def gbuffer(self) -> GBuffer:

@@ -63,6 +63,12 @@ class FocusRegion:
         covered = self.layout if self.ring is None else self.ring.outer
         return covered.y0, covered.y1
 
+    @property
+    def cols(self) -> tuple[int, int]:
+        """(first, stop): the only columns where ``weight`` may be > 0."""
+        covered = self.layout if self.ring is None else self.ring.outer
+        return covered.x0, covered.x1
+
 
 @dataclass
 class RingedRegion:

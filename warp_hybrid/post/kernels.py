@@ -5,7 +5,8 @@ not copies.
 
 The per-pixel kernels follow ``Launcher.launch_pixels`` (last inputs ``row0, row_step,
 cols``): on the CPU a launch item is a whole row (argument copies are paid once per
-row), on CUDA one pixel.  The exposure kernels run one thread (``wp.launch`` with
+row), on CUDA one pixel.  The tone map and FXAA also take the columns ``x0 <= x < x1``
+they draw (all of them, or the part of a kept frame that changed).  The exposure kernels run one thread (``wp.launch`` with
 ``dim=1``) and keep the frame's exposure in device memory, so no stage reads it back.
 
 No ``from __future__ import annotations`` here: the closures' kernel signatures use
@@ -112,6 +113,8 @@ def _make_tonemap_kernel(operator: wp.Function, with_luma: bool) -> wp.Kernel:
         out: wp.array3d(dtype=wp.uint8),
         luma_lut: wp.array(dtype=wp.vec3),
         luma: wp.array2d(dtype=float),
+        x0: int,
+        x1: int,
         row0: int,
         row_step: int,
         cols: int,
@@ -119,7 +122,7 @@ def _make_tonemap_kernel(operator: wp.Function, with_luma: bool) -> wp.Kernel:
         r, c = wp.tid()
         y = row0 + r * row_step
         scale = exposure[0].scale
-        for x in range(c * cols, wp.min(c * cols + cols, color.shape[1])):
+        for x in range(wp.max(c * cols, x0), wp.min(c * cols + cols, x1)):
             tone = wp.static(operator)(color[y, x] * scale)
             red = srgb_quantize(tone[0], encoder)
             green = srgb_quantize(tone[1], encoder)
@@ -145,13 +148,18 @@ def fxaa_pixels(
     ldr: wp.array3d(dtype=wp.uint8),
     luma: wp.array2d(dtype=float),
     out: wp.array3d(dtype=wp.uint8),
+    x0: int,
+    x1: int,
     row0: int,
     row_step: int,
     cols: int,
 ):
-    """FXAA over the 8-bit sRGB image ``ldr`` (its luma in ``luma``) into ``out``, which
-    holds a copy of ``ldr`` (only the edge pixels are written)."""
+    """FXAA over the 8-bit sRGB image ``ldr`` (its luma in ``luma``) into ``out``, in the
+    columns ``x0 <= x < x1`` of the launched rows: each pixel ``ldr``'s colour, the edge
+    pixels' then anti-aliased."""
     r, c = wp.tid()
     y = row0 + r * row_step
-    for x in range(c * cols, wp.min(c * cols + cols, ldr.shape[1])):
+    for x in range(wp.max(c * cols, x0), wp.min(c * cols + cols, x1)):
+        for k in range(3):
+            out[y, x, k] = ldr[y, x, k]
         fxaa_pixel(ldr, luma, out, x, y)

@@ -4,11 +4,11 @@ Every pass runs on the device (``Launcher.launch_pixels``; the exposure kernels 
 thread each), and the frame's exposure stays in device memory between them: nothing
 is read back before the finished image.
 
-A caller that knows which rows of the colour changed since the last call
-(``changed_rows``: a still view whose raster layer was kept, where only the focus
-window's rows move) gets those rows redrawn only: tone mapping over them, FXAA over
-them widened by ``FXAA_REACH_PX`` (the farthest FXAA reads), the rest of the image kept
-from the last call, which is the same bit for bit.  This holds only where the last call
+A caller that knows which rows and columns of the colour changed since the last call
+(``changed_rows``, ``changed_cols``: a still view whose raster layer was kept, where only
+the focus window moves) gets that rectangle redrawn only: tone mapping over it, FXAA over
+it widened by ``FXAA_REACH_PX`` (the farthest FXAA reads) on every side, the rest of the
+image kept from the last call, which is the same bit for bit.  This holds only where the last call
 drew the same colour buffer with the same settings and exposure; otherwise, and for
 ``changed_rows`` None, the whole image is drawn.
 """
@@ -144,6 +144,7 @@ class PostProcess(RenderPass):
             b.metered,
             keep_exposure=keep,
             changed_rows=frame.changed_rows,
+            changed_cols=frame.changed_cols,
         )
 
     def process(
@@ -157,6 +158,7 @@ class PostProcess(RenderPass):
         metered: wp.array | None = None,
         keep_exposure: bool = False,
         changed_rows: RowSpan | None = None,
+        changed_cols: RowSpan | None = None,
     ) -> wp.array:
         """Expose ``color`` ((H, W) vec3, linear) by ``2**exposure_ev`` (None: automatic,
         key 0.18 over the log-average luminance of ``metered``, default ``color``
@@ -169,8 +171,9 @@ class PostProcess(RenderPass):
         The EV used stays on the device (``exposure``; ``last_exposure_ev`` reads it);
         ``keep_exposure``: an automatic exposure is the last call's, not metered again (the
         caller knows ``metered`` and the mask are the last call's).
-        ``changed_rows`` (first, stop): the only rows of ``color`` that can differ from the
-        last call's ``color`` (module docstring; None: any row)."""
+        ``changed_rows``, ``changed_cols`` (first, stop): the only rows and columns of
+        ``color`` that can differ from the last call's ``color`` (module docstring; None:
+        any)."""
         if tonemap not in TONEMAPS:
             raise ValueError(f"unknown tone mapping {tonemap!r}; choose one of {', '.join(TONEMAPS)}")
         h, w = int(color.shape[0]), int(color.shape[1])
@@ -179,7 +182,7 @@ class PostProcess(RenderPass):
         # or the automatic one kept), means only ``changed_rows`` can change
         drawn = (color, buffers["ldr"], tonemap, aa, exposure_ev)
         same_exposure = exposure_ev is not None or keep_exposure
-        rows = (0, h)
+        rows, cols = (0, h), (0, w)
         last = self._drawn
         if (
             changed_rows is not None
@@ -189,6 +192,8 @@ class PostProcess(RenderPass):
             and drawn[2:] == last[2:]
         ):
             rows = span_clip(changed_rows, h)
+            if changed_cols is not None:
+                cols = span_clip(changed_cols, w)
         self._drawn = None  # until this call is done
         with timer.stage("tonemap"):
             if exposure_ev is None:
@@ -196,23 +201,15 @@ class PostProcess(RenderPass):
                     self.auto_exposure(color if metered is None else metered, hit_mask)
             else:
                 self.set_exposure(exposure_ev)
-            inputs = [color, self._exposure, self._encoder, buffers["ldr"], self._luma_lut, buffers["luma"]]
+            inputs = [color, self._exposure, self._encoder, buffers["ldr"], self._luma_lut, buffers["luma"], *cols]
             self.launcher.launch_pixels(TONEMAP_KERNELS[(tonemap, aa)], h, w, inputs, rows=rows)
         self._drawn = drawn
         if not aa:
             return buffers["ldr"]
         with timer.stage("aa"):
             smoothed = span_grow(rows, FXAA_REACH_PX, h)
-            if smoothed != NO_ROWS:
-                first, stop = smoothed
-                count = (stop - first) * w * 3
-                wp.copy(
-                    buffers["smoothed"],
-                    buffers["ldr"],
-                    dest_offset=first * w * 3,
-                    src_offset=first * w * 3,
-                    count=count,
-                )
-                inputs = [buffers["ldr"], buffers["luma"], buffers["smoothed"]]
+            smoothed_cols = span_grow(cols, FXAA_REACH_PX, w)
+            if smoothed != NO_ROWS and smoothed_cols != NO_ROWS:
+                inputs = [buffers["ldr"], buffers["luma"], buffers["smoothed"], *smoothed_cols]
                 self.launcher.launch_pixels(fxaa_pixels, h, w, inputs, rows=smoothed)
         return buffers["smoothed"]

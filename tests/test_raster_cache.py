@@ -82,14 +82,20 @@ def test_a_still_view_keeps_its_raster_layer_and_changes_nothing(device: str, ex
             np.testing.assert_array_equal(a.aovs()["depth"], b.aovs()["depth"], err_msg=f"frame {i}")
 
 
-def test_a_window_moving_across_rows_redraws_only_what_changed(device: str) -> None:
-    """On a tall frame, the window jumps between rows far apart: the cached renderer
-    restores only the rows the last window covered and redraws only the rows either
-    window touched (FXAA's reach around them), and every frame equals the uncached one."""
+@pytest.mark.parametrize("across", ["rows", "cols"])
+def test_a_window_moving_across_the_frame_redraws_only_what_changed(device: str, across: str) -> None:
+    """On a tall (wide) frame, the window jumps between rows (columns) far apart: the
+    cached renderer restores only the rows the last window covered and redraws only the
+    rows and columns either window touched (FXAA's reach around them), and every frame
+    equals the uncached one."""
     scene = _scene()
     cam = scene.cameras[0]
     gazes = [(0.5, 0.1), (0.5, 0.9), (0.3, 0.5), (0.6, 0.1), (0.6, 0.12)]
-    settings = {"width": 40, "height": 160, "exposure_ev": None, "threads": 2, "device": device}
+    size = {"width": 40, "height": 160}
+    if across == "cols":
+        gazes = [(y, x) for x, y in gazes]
+        size = {"width": 160, "height": 40}
+    settings = {**size, "exposure_ev": None, "threads": 2, "device": device}
     with (
         Renderer(scene, RenderSettings(cache_raster=True, **settings)) as cached,
         Renderer(scene, RenderSettings(**settings)) as plain,
@@ -98,29 +104,8 @@ def test_a_window_moving_across_rows_redraws_only_what_changed(device: str) -> N
             window = FocusWindow(gaze=gaze, fraction=0.05)
             a, b = cached.render(cam, window), plain.render(cam, window)
             assert a.stats["raster_cached"] is (i > 0)
-            rows = cached.buffers.color_rows
-            assert rows is not None and rows[1] - rows[0] < 60, rows  # the window's rows only
-            np.testing.assert_array_equal(a.image, b.image, err_msg=f"frame {i}")
-            np.testing.assert_array_equal(a.color, b.color, err_msg=f"frame {i}")
-
-
-def test_a_window_moving_across_columns_redraws_only_what_changed(device: str) -> None:
-    """On a wide frame, the window jumps between columns far apart: the cached renderer
-    redraws only the columns either window touched (FXAA's reach around them), and
-    every frame equals the uncached one."""
-    scene = _scene()
-    cam = scene.cameras[0]
-    gazes = [(0.1, 0.5), (0.9, 0.5), (0.5, 0.3), (0.1, 0.6), (0.12, 0.6)]
-    settings = {"width": 160, "height": 40, "exposure_ev": None, "threads": 2, "device": device}
-    with (
-        Renderer(scene, RenderSettings(cache_raster=True, **settings)) as cached,
-        Renderer(scene, RenderSettings(**settings)) as plain,
-    ):
-        for i, gaze in enumerate(gazes):
-            window = FocusWindow(gaze=gaze, fraction=0.05)
-            a, b = cached.render(cam, window), plain.render(cam, window)
-            cols = cached.buffers.color_cols
-            assert cols is not None and cols[1] - cols[0] < 60, cols  # the window's columns only
+            span = cached.buffers.color_rows if across == "rows" else cached.buffers.color_cols
+            assert span is not None and span[1] - span[0] < 60, span  # the window's rows (columns) only
             np.testing.assert_array_equal(a.image, b.image, err_msg=f"frame {i}")
             np.testing.assert_array_equal(a.color, b.color, err_msg=f"frame {i}")
 

@@ -58,16 +58,19 @@ class FocusRegion:
     ring: RingLayout | None = None
 
     @property
+    def _covered(self) -> WindowLayout:
+        """The layout whose box holds every pixel with ``weight`` > 0."""
+        return self.layout if self.ring is None else self.ring.outer
+
+    @property
     def rows(self) -> tuple[int, int]:
         """(first, stop): the only rows where ``weight`` may be > 0."""
-        covered = self.layout if self.ring is None else self.ring.outer
-        return covered.y0, covered.y1
+        return self._covered.y0, self._covered.y1
 
     @property
     def cols(self) -> tuple[int, int]:
         """(first, stop): the only columns where ``weight`` may be > 0."""
-        covered = self.layout if self.ring is None else self.ring.outer
-        return covered.x0, covered.x1
+        return self._covered.x0, self._covered.x1
 
 
 @dataclass

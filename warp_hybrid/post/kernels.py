@@ -6,8 +6,9 @@ not copies.
 The per-pixel kernels follow ``Launcher.launch_pixels`` (last inputs ``row0, row_step,
 cols``): on the CPU a launch item is a whole row (argument copies are paid once per
 row), on CUDA one pixel.  The tone map and FXAA also take the columns ``x0 <= x < x1``
-they draw (all of them, or the part of a kept frame that changed).  The exposure kernels run one thread (``wp.launch`` with
-``dim=1``) and keep the frame's exposure in device memory, so no stage reads it back.
+they draw (all of them, or the part of a kept frame that changed).  The exposure
+kernels run one thread (``wp.launch`` with ``dim=1``) and keep the frame's exposure in
+device memory, so no stage reads it back.
 
 No ``from __future__ import annotations`` here: the closures' kernel signatures use
 local types, which Warp resolves from evaluated annotations."""

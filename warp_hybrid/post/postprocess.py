@@ -8,9 +8,9 @@ A caller that knows which rows and columns of the colour changed since the last 
 (``changed_rows``, ``changed_cols``: a still view whose raster layer was kept, where only
 the focus window moves) gets that rectangle redrawn only: tone mapping over it, FXAA over
 it widened by ``FXAA_REACH_PX`` (the farthest FXAA reads) on every side, the rest of the
-image kept from the last call, which is the same bit for bit.  This holds only where the last call
-drew the same colour buffer with the same settings and exposure; otherwise, and for
-``changed_rows`` None, the whole image is drawn.
+image kept from the last call, which is the same bit for bit.  This holds only where
+the last call drew the same colour buffer with the same settings and exposure;
+otherwise, and for ``changed_rows`` None, the whole image is drawn.
 """
 
 from __future__ import annotations
@@ -179,7 +179,7 @@ class PostProcess(RenderPass):
         h, w = int(color.shape[0]), int(color.shape[1])
         buffers = self._targets(h, w)
         # what this call draws: the same as the last call's, with the same EV (a fixed one,
-        # or the automatic one kept), means only ``changed_rows`` can change
+        # or the automatic one kept), means only ``changed_rows`` x ``changed_cols`` can change
         drawn = (color, buffers["ldr"], tonemap, aa, exposure_ev)
         same_exposure = exposure_ev is not None or keep_exposure
         rows, cols = (0, h), (0, w)

@@ -162,8 +162,8 @@ def measure_scene(path: str, width: int, height: int, repeats: int, bvh: str = "
     scene = open_scene_source(path).scene_at(None)
     camera = scene.cameras[0]
     ours: dict[str, dict[str, float]] = {}
-    rays: dict[str, int] = {}
-    threads, hit_share = 0, 0.0
+    rays: dict[str, dict[str, int]] = {}
+    threads = 0
     transmissive = np.array([m.is_glass for m in scene.materials] + [False], dtype=bool)  # FLAG_TRANSMISSIVE
     for key, mode, depth in (("raster", "raster", 3), ("full", "full", 3), ("full_depth1", "full", 1)):
         settings = RenderSettings(
@@ -174,16 +174,17 @@ def measure_scene(path: str, width: int, height: int, repeats: int, bvh: str = "
 
             def frame() -> dict[str, float]:
                 f = r.render(camera)
-                rays.update(f.stats.get("rays", {}))
+                rays[key] = f.stats.get("rays", {})
                 return {**f.stats["stages_ms"], "frame": f.stats["frame_ms"]}
 
             ours[key] = median_ms(frame, repeats)
-            gb = r.buffers.gbuffer
-            hit_share = float(gb.hit_mask().mean())
-            hit = gb.hit_mask().ravel()
-            roughness = gb.channel_numpy("optics")[..., 3].ravel()
-            through = hit & transmissive[gb.material_id.numpy().ravel()]
-            bounce = hit & ((roughness < float(SMOOTH_ROUGHNESS)) | through)
+            if key == "raster":  # the G-buffer is the same in every mode
+                gb = r.buffers.gbuffer
+                hit = gb.hit_mask().ravel()
+                roughness = gb.channel_numpy("optics")[..., 3].ravel()
+                through = hit & transmissive[gb.material_id.numpy().ravel()]
+                bounce = hit & ((roughness < float(SMOOTH_ROUGHNESS)) | through)
+    hit_share = float(hit.mean())
     peer = _mitsuba(scene, camera, width, height, repeats, threads, bounce, through)
     primary = sum(ours["raster"].get(s, 0.0) for s in PRIMARY_STAGES)
     return {
@@ -199,7 +200,7 @@ def measure_scene(path: str, width: int, height: int, repeats: int, bvh: str = "
             "full_frame": ours["full"]["frame"] / peer["whitted"],
             "same_bounce": ours["full_depth1"]["frame"] / peer["same_bounce"],
         },
-        "rays_depth1": rays,
+        "rays_depth1": rays["full_depth1"],
         "primary_ms": primary,
         "hit_share": hit_share,
     }

@@ -23,7 +23,7 @@
   G-buffer channel.
 * ``listed_primary_kernel`` (one item per entry of a pixel list): the ray-cast hit
   record and the surface pass of only the listed pixels, for sub-samples of the focus
-  window (``trace.fovea``); a listed pixel that misses gets the background triangle id.
+  window (``trace.fovea``); a listed pixel that misses gets the background's hit record.
 
 The per-pixel kernels follow the launch layer's ``row0, row_step, cols`` convention
 (``parallel.Launcher.launch_pixels``) and write through ``GBufferRows``.  Every pixel is
@@ -358,14 +358,14 @@ def listed_primary_kernel(
     start: int,
     step: int,
 ):
-    """Per listed pixel (item ``start + tid * step``): the ray-cast hit record (triangle
-    id -1 on a miss; ``wide`` as in ``raycast_kernel``) and, on a hit, the surface
+    """Per listed pixel (item ``start + tid * step``): the ray-cast hit record (the
+    background's on a miss; ``wide`` as in ``raycast_kernel``) and, on a hit, the surface
     channels; other pixels are untouched."""
     xy = listed_pixel(pixels, start + wp.tid() * step, cam.width, cam.height)
     if xy[0] < 0:
         return
     i = xy[1] * cam.width + xy[0]
-    gb.triangle_id[i] = -1
+    _write_miss_record(gb, i)
     if scene.mesh != wp.uint64(0):
         _cast(scene, wide, cam, gb, xy[0], xy[1])
     tri = gb.triangle_id[i]

@@ -4,7 +4,9 @@
 each item writes only its own pixel and its own row of the scratch arrays).  Per pixel,
 the primary point from the G-buffer is shaded with the transmittances the shadow
 kernel left (``shadows.py``), then an iterative path of reflection and refraction rays
-(no recursion) whose hits are shaded the same way, with their own shadow rays.
+(no recursion) whose hits are shaded the same way, with their own shadow rays.  A
+secondary hit reads its textures' mip chains over its pixel's ray cone (``cone.py``),
+as the G-buffer reads them over the pixel's footprint.
 
 Shading of a hit (primary or secondary) at depth d < max_depth (``shade_hit``):
 emission + sum of T_i x direct_light + the diffuse ambient (dome SH, and the lights'
@@ -51,8 +53,9 @@ from ..lighting.ambient import ambient_diffuse, ambient_specular, env_brdf
 from ..lighting.lights import light_sample
 from ..lighting.shading import diffuse_albedo, light_response, shade_surface
 from ..scene.device.environment import environment_radiance
-from ..scene.device.surface import SurfaceHit, is_cut_away, surface_at
+from ..scene.device.surface import SurfaceHit, is_cut_away, surface_at_grad
 from ..scene.device.wide_bvh import wide_closest
+from .cone import cone_footprint
 from .occluders import OccluderGPU
 from .offset import hit_bound, offset_ray_origin
 from .optics import make_transmission_func, mirror_direction, transmission_tint
@@ -71,18 +74,21 @@ KIND_REFRACT = wp.constant(3)
 
 _stack_vec3s = wp.types.matrix(shape=(MAX_DEPTH, 3), dtype=wp.float32)
 _stack_ints = wp.types.vector(length=MAX_DEPTH, dtype=wp.int32)
+_stack_floats = wp.types.vector(length=MAX_DEPTH, dtype=wp.float32)
 
 
 @wp.struct
 class Ray:
     """A ray still to trace: origin, direction, path weight, the depth of the hit it
-    will find and its kind (``KIND_*``; ``KIND_NONE`` = no ray)."""
+    will find, its kind (``KIND_*``; ``KIND_NONE`` = no ray) and the path length from
+    the camera to its origin (its pixel cone's, ``cone.py``)."""
 
     origin: wp.vec3
     direction: wp.vec3
     weight: wp.vec3
     depth: int
     kind: int
+    cone_length: float
 
 
 @wp.struct
@@ -125,7 +131,7 @@ def gbuffer_surface(scene: SceneGPU, gb: GBufferArrays, y: int, x: int, d: wp.ve
 
 
 @wp.func
-def make_ray(origin: wp.vec3, direction: wp.vec3, weight: wp.vec3, depth: int, kind: int) -> Ray:
+def make_ray(origin: wp.vec3, direction: wp.vec3, weight: wp.vec3, depth: int, kind: int, cone_length: float) -> Ray:
     """A ``Ray`` from its parts."""
     r = Ray()
     r.origin = origin
@@ -133,13 +139,14 @@ def make_ray(origin: wp.vec3, direction: wp.vec3, weight: wp.vec3, depth: int, k
     r.weight = weight
     r.depth = depth
     r.kind = kind
+    r.cone_length = cone_length
     return r
 
 
 @wp.func
 def no_ray() -> Ray:
     """The empty ``Ray`` (``KIND_NONE``)."""
-    return make_ray(wp.vec3(0.0), wp.vec3(0.0), wp.vec3(0.0), 0, KIND_NONE)
+    return make_ray(wp.vec3(0.0), wp.vec3(0.0), wp.vec3(0.0), 0, KIND_NONE, 0.0)
 
 
 @functools.lru_cache(maxsize=None)
@@ -197,10 +204,12 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
         d: wp.vec3,
         weight: wp.vec3,
         depth: int,
+        cone_length: float,
         can_push: bool,
     ) -> HitShading:
         """Shade hit ``h`` (on a triangle whose ``offset.hit_bound`` is ``bound``) seen
-        along ``d`` with path ``weight`` at ``depth``; segment 0 (the primary point) takes
+        along ``d`` with path ``weight`` at ``depth``, ``cone_length`` from the camera
+        along the path (what its rays carry on); segment 0 (the primary point) takes
         the shadow kernel's transmittances.  Two branches split only when ``can_push``
         (room on the stack); otherwise the reflection goes on."""
         zero = wp.vec3(0.0, 0.0, 0.0)
@@ -319,15 +328,23 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
             if a_ok and b_ok and can_push:
                 # follow the heavier branch, push the other
                 if max3(b_w) > max3(a_w):
-                    out.pushed = make_ray(offset_ray_origin(h.position, ng, bound), a_d, a_w, depth + 1, KIND_REFLECT)
+                    out.pushed = make_ray(
+                        offset_ray_origin(h.position, ng, bound), a_d, a_w, depth + 1, KIND_REFLECT, cone_length
+                    )
                     a_ok = False
                 else:
-                    out.pushed = make_ray(offset_ray_origin(h.position, -ng, bound), b_d, b_w, depth + 1, KIND_REFRACT)
+                    out.pushed = make_ray(
+                        offset_ray_origin(h.position, -ng, bound), b_d, b_w, depth + 1, KIND_REFRACT, cone_length
+                    )
                     b_ok = False
             if a_ok:
-                out.next = make_ray(offset_ray_origin(h.position, ng, bound), a_d, a_w, depth + 1, KIND_REFLECT)
+                out.next = make_ray(
+                    offset_ray_origin(h.position, ng, bound), a_d, a_w, depth + 1, KIND_REFLECT, cone_length
+                )
             elif b_ok:
-                out.next = make_ray(offset_ray_origin(h.position, -ng, bound), b_d, b_w, depth + 1, KIND_REFRACT)
+                out.next = make_ray(
+                    offset_ray_origin(h.position, -ng, bound), b_d, b_w, depth + 1, KIND_REFRACT, cone_length
+                )
         return out
 
     @wp.kernel(enable_backward=False, module="unique")
@@ -354,6 +371,7 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
         d = wp.normalize(tf.gb.position[y, x] - tf.cam.origin)
         h = gbuffer_surface(scene, tf.gb, y, x, d)
         bound = hit_bound(scene, tf.gb.triangle_id[y, x])
+        cone_length = wp.length(h.position - tf.cam.origin)
         weight = wp.vec3(1.0, 1.0, 1.0)
         depth = int(0)
         segment = int(0)
@@ -367,6 +385,7 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
         stack_weight = _stack_vec3s()
         stack_depth = _stack_ints()
         stack_kind = _stack_ints()
+        stack_cone = _stack_floats()
         stack_size = int(0)
         have_hit = int(1)
         while True:
@@ -374,7 +393,7 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
             if have_hit != 0:
                 have_hit = 0
                 can_push = stack_size < wp.static(MAX_DEPTH)
-                s = shade_hit(scene, amb, tf, item, pixel, segment, h, bound, d, weight, depth, can_push)
+                s = shade_hit(scene, amb, tf, item, pixel, segment, h, bound, d, weight, depth, cone_length, can_push)
                 segment += 1
                 radiance += s.radiance
                 shadow_rays += s.shadow_rays
@@ -385,6 +404,7 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
                     stack_weight[stack_size] = s.pushed.weight
                     stack_depth[stack_size] = s.pushed.depth
                     stack_kind[stack_size] = s.pushed.kind
+                    stack_cone[stack_size] = s.pushed.cone_length
                     stack_size += 1
             if wp.static(not secondary):
                 break
@@ -398,6 +418,7 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
                     stack_weight[stack_size],
                     stack_depth[stack_size],
                     stack_kind[stack_size],
+                    stack_cone[stack_size],
                 )
             if ray.kind == KIND_REFLECT:
                 reflect_rays += 1
@@ -405,7 +426,9 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
                 refract_rays += 1
             hit = closest_hit(scene, tf.occ, ray.origin, ray.direction)
             if hit.face >= 0:
-                h = surface_at(scene, hit.face, hit.u, hit.v, ray.direction)
+                footprint = cone_footprint(scene, tf.cam, hit.face, ray.origin, ray.direction, ray.cone_length)
+                h = surface_at_grad(scene, hit.face, hit.u, hit.v, ray.direction, footprint)
+                cone_length = ray.cone_length + wp.length(h.position - ray.origin)
                 bound = hit_bound(scene, hit.face)
                 d = ray.direction
                 weight = ray.weight

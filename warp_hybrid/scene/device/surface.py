@@ -40,7 +40,8 @@ stays the face normal.
 
 Minification: material textures carry box-filtered mip chains (``mipmaps``).  The
 G-buffer passes know each pixel's uv footprint (``uv_footprint``: ray differentials
-of the camera rays, on the hit triangle's plane) and sample trilinearly at OpenGL's
+of the camera rays, on the hit triangle's plane), the tracer's secondary hits their
+pixel's ray cone (``trace/cone.py``), and both sample trilinearly at OpenGL's
 isotropic level of detail, log2 of the longer pixel axis in level-0 texels
 (``surface_at_grad``, ``sample_texture_grad``).  Where that is <= 0 (magnified) the
 lookup is the plain bilinear level-0 one, which ``surface_at`` and ``sample_texture``

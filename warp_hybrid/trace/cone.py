@@ -15,7 +15,8 @@ lookups alias a minified texture into speckle and miss the cache at every hit.
 Curvature is left out (no beta term), so a curved mirror's cone spreads no faster than
 a flat one's: its textures stay as sharp as, never blurrier than, the full ray-
 differential answer.  A magnified texture (level of detail <= 0) reads level 0
-bilinearly, exactly as the unfiltered lookup does.
+bilinearly, exactly as the unfiltered lookup does.  Shadow rays carry no cone: the tint of
+a textured transmissive surface they cross is read at level 0 (``shadows.py``).
 """
 
 from __future__ import annotations

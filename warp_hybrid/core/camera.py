@@ -102,6 +102,17 @@ def camera_ray(cam: CameraGPU, px: float, py: float) -> wp.vec3:
 
 
 @wp.func(inline=True)
+def sample_spread(cam: CameraGPU) -> wp.vec2:
+    """How far ``camera_ray``'s direction moves (per unit forward) for one sample step
+    right and one down: ``2 tan_x / width`` and ``2 tan_y / height`` times
+    ``sample_step`` (the angle a sample step subtends at the image centre)."""
+    return wp.vec2(
+        2.0 * cam.tan_x / float(cam.width) * cam.sample_step[0],
+        2.0 * cam.tan_y / float(cam.height) * cam.sample_step[1],
+    )
+
+
+@wp.func(inline=True)
 def pixel_ray(cam: CameraGPU, x: int, y: int) -> wp.vec3:
     """``camera_ray`` through the sample point of pixel (x, y) (its centre unless the
     frame is supersampled)."""

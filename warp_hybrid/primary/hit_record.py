@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import warp as wp
 
-from ..core.camera import CameraGPU
+from ..core.camera import CameraGPU, sample_spread
 from ..core.scene_gpu import SceneGPU
 from ..scene.device.surface import uv_footprint
 
@@ -20,9 +20,8 @@ def pixel_footprint(scene: SceneGPU, cam: CameraGPU, tri: int, d: wp.vec3) -> wp
     """uv footprint (du/dx, dv/dx, du/dy, dv/dy) on triangle ``tri`` of the pixel sample
     whose camera ray is ``d``: the ray differentials of one sample step right and down
     (one pixel, unless the frame is supersampled: ``CameraGPU.sample_step``)."""
-    ddx = cam.right * (2.0 * cam.tan_x / float(cam.width) * cam.sample_step[0])
-    ddy = cam.up * (-2.0 * cam.tan_y / float(cam.height) * cam.sample_step[1])
-    return uv_footprint(scene, tri, cam.origin, d, ddx, ddy)
+    spread = sample_spread(cam)
+    return uv_footprint(scene, tri, cam.origin, d, cam.right * spread[0], cam.up * (-spread[1]))
 
 
 @wp.func(inline=True)

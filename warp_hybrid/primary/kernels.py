@@ -42,7 +42,7 @@ from ..core.constants import luma709
 from ..core.gbuffer import BACKGROUND, GBufferRows, Optics
 from ..core.pixel_list import listed_pixel
 from ..core.scene_gpu import SceneGPU
-from ..scene.device.surface import is_cut_away, surface_at_grad
+from ..scene.device.surface import is_cut_away, samples_textures, surface_at_grad
 from ..scene.device.wide_bvh import WideBVHGPU, WideHit, wide_closest
 from .clipping import ProjectedPoints, in_guard_band, project, raster_clipped, to_camera
 from .coverage import EMPTY_KEY, RasterTarget, raster_triangle
@@ -227,19 +227,11 @@ def _write_background_surface(gb: GBufferRows, i: int):
 
 
 @wp.func(inline=True)
-def _textured(scene: SceneGPU, tri: int) -> bool:
-    """Whether the triangle's material samples any texture."""
-    m = scene.materials[scene.triangle_material[tri]]
-    slots = wp.max(wp.max(m.diffuse_tex, m.emissive_tex), wp.max(m.roughness_tex, m.metallic_tex))
-    return wp.max(wp.max(slots, m.opacity_tex), m.normal_tex) >= 0
-
-
-@wp.func(inline=True)
 def _write_surface(gb: GBufferRows, i: int, scene: SceneGPU, cam: CameraGPU, tri: int, b: wp.vec2, d: wp.vec3):
     """Evaluate the surface at barycentrics ``b`` of ``tri`` (textures filtered over the
     pixel's footprint; ``d`` is the camera ray) into every other channel at ``i``."""
     footprint = wp.vec4(0.0, 0.0, 0.0, 0.0)
-    if _textured(scene, tri):
+    if samples_textures(scene, tri):
         footprint = pixel_footprint(scene, cam, tri, d)
     h = surface_at_grad(scene, tri, b[0], b[1], d, footprint)
     gb.position[i] = h.position

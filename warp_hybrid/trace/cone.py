@@ -3,8 +3,7 @@
 A reflected or refracted ray carries the cone of its pixel (Akenine-Moller et al.,
 "Texture Level of Detail Strategies for Real-Time Ray Tracing", Ray Tracing Gems 2019,
 ch. 20): the cone's apex is the camera, its spread the angle one pixel sample step
-subtends at the image centre (``2 tan_x / width`` by ``2 tan_y / height``, times
-``CameraGPU.sample_step``), and every surface on the way is taken as flat, so the cone
+subtends at the image centre (``camera.sample_spread``), and every surface on the way is taken as flat, so the cone
 only widens with the path length.  A ray that has travelled ``cone_length`` from the
 camera to its origin is therefore the axis of a pinhole camera at the virtual apex
 ``origin - cone_length * d``, and its hit's uv footprint is the ray differential of
@@ -15,15 +14,15 @@ lookups alias a minified texture into speckle and miss the cache at every hit.
 Curvature is left out (no beta term), so a curved mirror's cone spreads no faster than
 a flat one's: its textures stay as sharp as, never blurrier than, the full ray-
 differential answer.  A magnified texture (level of detail <= 0) reads level 0
-bilinearly, exactly as the unfiltered lookup does.  Shadow rays carry no cone: the tint of
-a textured transmissive surface they cross is read at level 0 (``shadows.py``).
+bilinearly, exactly as the unfiltered lookup does.  Shadow rays carry no cone: the
+tint of a textured transmissive surface they cross is read at level 0 (``shadows.py``).
 """
 
 from __future__ import annotations
 
 import warp as wp
 
-from ..core.camera import CameraGPU
+from ..core.camera import CameraGPU, sample_spread
 from ..core.scene_gpu import SceneGPU
 from ..scene.device.surface import uv_footprint
 
@@ -41,6 +40,5 @@ def cone_footprint(
     b = d[0] * d[1] * a
     e1 = wp.vec3(1.0 + sign * d[0] * d[0] * a, sign * b, -sign * d[0])
     e2 = wp.vec3(b, sign + d[1] * d[1] * a, -d[1])
-    spread_x = 2.0 * cam.tan_x / float(cam.width) * cam.sample_step[0]
-    spread_y = 2.0 * cam.tan_y / float(cam.height) * cam.sample_step[1]
-    return uv_footprint(scene, tri, origin - d * cone_length, d, e1 * spread_x, e2 * spread_y)
+    spread = sample_spread(cam)
+    return uv_footprint(scene, tri, origin - d * cone_length, d, e1 * spread[0], e2 * spread[1])

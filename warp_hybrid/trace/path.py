@@ -53,7 +53,7 @@ from ..lighting.ambient import ambient_diffuse, ambient_specular, env_brdf
 from ..lighting.lights import light_sample
 from ..lighting.shading import diffuse_albedo, light_response, shade_surface
 from ..scene.device.environment import environment_radiance
-from ..scene.device.surface import SurfaceHit, is_cut_away, surface_at_grad
+from ..scene.device.surface import SurfaceHit, is_cut_away, samples_textures, surface_at_grad
 from ..scene.device.wide_bvh import wide_closest
 from .cone import cone_footprint
 from .occluders import OccluderGPU
@@ -426,7 +426,9 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
                 refract_rays += 1
             hit = closest_hit(scene, tf.occ, ray.origin, ray.direction)
             if hit.face >= 0:
-                footprint = cone_footprint(scene, tf.cam, hit.face, ray.origin, ray.direction, ray.cone_length)
+                footprint = wp.vec4(0.0, 0.0, 0.0, 0.0)
+                if samples_textures(scene, hit.face):
+                    footprint = cone_footprint(scene, tf.cam, hit.face, ray.origin, ray.direction, ray.cone_length)
                 h = surface_at_grad(scene, hit.face, hit.u, hit.v, ray.direction, footprint)
                 cone_length = ray.cone_length + wp.length(h.position - ray.origin)
                 bound = hit_bound(scene, hit.face)

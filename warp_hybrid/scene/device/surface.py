@@ -320,6 +320,15 @@ def uv_footprint(scene: SceneGPU, tri: int, origin: wp.vec3, d: wp.vec3, ddx: wp
 
 
 @wp.func(inline=True)
+def samples_textures(scene: SceneGPU, tri: int) -> bool:
+    """Whether the triangle's material samples any texture (only then does a caller need
+    the footprint ``surface_at_grad`` filters over)."""
+    m = scene.materials[scene.triangle_material[tri]]
+    slots = wp.max(wp.max(m.diffuse_tex, m.emissive_tex), wp.max(m.roughness_tex, m.metallic_tex))
+    return wp.max(wp.max(slots, m.opacity_tex), m.normal_tex) >= 0
+
+
+@wp.func(inline=True)
 def _channel(v: wp.vec4, c: int) -> float:
     return v[wp.clamp(c, 0, 3)]
 

@@ -3,13 +3,14 @@
 A reflected or refracted ray carries the cone of its pixel (Akenine-Moller et al.,
 "Texture Level of Detail Strategies for Real-Time Ray Tracing", Ray Tracing Gems 2019,
 ch. 20): the cone's apex is the camera, its spread the angle one pixel sample step
-subtends at the image centre (``camera.sample_spread``), and every surface on the way is taken as flat, so the cone
-only widens with the path length.  A ray that has travelled ``cone_length`` from the
-camera to its origin is therefore the axis of a pinhole camera at the virtual apex
-``origin - cone_length * d``, and its hit's uv footprint is the ray differential of
-that camera (``surface.uv_footprint``): the hit reads its textures' mip chains at the
-level a direct view from that distance would pick (``surface_at_grad``), where level-0
-lookups alias a minified texture into speckle and miss the cache at every hit.
+subtends at the image centre (``camera.sample_spread``), and every surface on the way
+is taken as flat, so the cone only widens with the path length.  A ray that has
+travelled ``cone_length`` from the camera to its origin is therefore the axis of a
+pinhole camera at the virtual apex ``origin - cone_length * d``, and its hit's uv
+footprint is the ray differential of that camera (``surface.uv_footprint``): the hit
+reads its textures' mip chains at the level a direct view from that distance would
+pick (``surface_at_grad``), where level-0 lookups alias a minified texture into
+speckle and miss the cache at every hit.
 
 Curvature is left out (no beta term), so a curved mirror's cone spreads no faster than
 a flat one's: its textures stay as sharp as, never blurrier than, the full ray-

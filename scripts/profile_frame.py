@@ -2,12 +2,15 @@
 and per thread (``launch_profile.LaunchProfile`` attached to the renderer's launcher).
 
     .venv/bin/python scripts/profile_frame.py SCENE [--mode raster|hybrid|full] [--size 640x480]
-        [--frames 5] [--window 0.25] [--threads N] [--json out/profile.json]
+        [--frames 5] [--window 0.25] [--threads N] [--raster-cache] [--json out/profile.json]
 
 Renders a warm-up frame, then ``--frames`` frames with the profile attached, and prints,
 slowest first, each kernel's launches per frame, its wall time per frame (the busiest
 thread's time), its CPU time over all threads and the thread balance (mean over busiest
-piece); then the frame's stages and the host time no kernel accounts for.
+piece); then the frame's stages and the host time no kernel accounts for.  With
+``--raster-cache`` (hybrid mode) the still view's raster layer is kept, so the profiled
+frames are the kept frames of a gaze replay over a still camera (the gaze fixed at the
+centre): what the budget loop's traced window is left with.
 """
 
 from __future__ import annotations
@@ -27,6 +30,7 @@ def main() -> None:
     ap.add_argument("--frames", type=int, default=5)
     ap.add_argument("--window", type=float, default=0.25)
     ap.add_argument("--threads", type=int, default=None)
+    ap.add_argument("--raster-cache", action="store_true", help="keep the still view's raster layer (kept frames)")
     ap.add_argument("--json", default=None)
     args = ap.parse_args()
     from warp_hybrid.launch_profile import LaunchProfile
@@ -39,7 +43,12 @@ def main() -> None:
     scene = open_scene_source(args.scene).scene_at(None)
     camera = scene.cameras[0]
     settings = RenderSettings(
-        width=width, height=height, mode=args.mode, window_fraction=args.window, threads=args.threads
+        width=width,
+        height=height,
+        mode=args.mode,
+        window_fraction=args.window,
+        threads=args.threads,
+        cache_raster=args.raster_cache,
     )
     with Renderer(scene, settings) as r:
         r.warm_up(camera)
@@ -50,7 +59,8 @@ def main() -> None:
         threads = r.launcher.threads
     rows = profile.rows(args.frames)
     frame_ms = statistics.median(f["frame_ms"] for f in frames)
-    print(f"{args.scene}: --mode {args.mode}, {width}x{height}, {threads} threads, {args.frames} frames")
+    kept = ", raster layer kept" if args.raster_cache else ""
+    print(f"{args.scene}: --mode {args.mode}, {width}x{height}, {threads} threads, {args.frames} frames{kept}")
     print("| kernel | launches/frame | wall ms/frame | thread CPU ms/frame | balance |")
     print("|---|---|---|---|---|")
     for row in rows:

@@ -46,10 +46,12 @@ KEY_BYTES = 8
 HOST_BYTES_PER_PIXEL = 3 + 12 + 64
 #: Device bytes per triangle besides its arrays: the main BVH and the shadow BVHs.
 BVH_BYTES_PER_TRIANGLE = 128
-#: On the CPU, the 4-wide copies of those BVHs the tracer and the ray-cast primaries
-#: query (``scene/device/wide_bvh.py``; 123-126 bytes a triangle measured on the
-#: shared scenes).
-WIDE_BVH_BYTES_PER_TRIANGLE = 128
+#: On the CPU, the 4-wide BVHs over those triangles that the tracer and the ray-cast
+#: primaries query (``scene/device/wide_bvh.py``): 51-53 bytes a triangle each measured
+#: on the shared scenes, and the scene's and the opaque shadow one hold nearly every
+#: triangle.  (Their build's scratch, at most 116 bytes a triangle, lives only while one
+#: is built.)
+WIDE_BVH_BYTES_PER_TRIANGLE = 112
 #: Texel mip chains add a third to every image (float4 texels).
 MIP_FACTOR = 4.0 / 3.0
 #: Shadow maps: faces per light at most (a cube map), float32 depth per texel, the hit

@@ -1,5 +1,6 @@
-"""The 4-wide BVH copy answers every ray query as Warp's own query on the same mesh does
-(CPU only: the tracer's CUDA variant keeps Warp's queries)."""
+"""The 4-wide BVH answers every ray query as Warp's own query on the same mesh does,
+whatever the shape of its own tree (CPU only: the tracer's CUDA variant keeps Warp's
+queries)."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ import pytest
 import warp as wp
 
 from warp_hybrid.scene.device.wide_bvh import WideBVH, WideBVHGPU, wide_any_hit, wide_closest
+from warp_hybrid.scene.device.wide_bvh_build import MAX_LEAF
 
 CPU = "cpu"
 
@@ -105,8 +107,11 @@ def _assert_same_answers(mesh: wp.Mesh, wide: WideBVH, o: np.ndarray, d: np.ndar
     np.testing.assert_array_equal(wide_hit[:, 0] >= 0, warp_hit[:, 0] >= 0)
     np.testing.assert_array_equal(wide_hit[:, 1], warp_hit[:, 1])  # the nearest distance, always
     same = wide_hit[:, 0] == warp_hit[:, 0]
-    # another face only in a tie: at the same distance (a shared edge or vertex)
-    assert (~same).sum() <= 0.01 * len(o)
+    # another face only in a tie: at the same distance, on an edge or a corner both faces share
+    corners = mesh.points.numpy()[mesh.indices.numpy().reshape(-1, 3)]
+    ours, theirs = corners[wide_hit[~same, 0].astype(int)], corners[warp_hit[~same, 0].astype(int)]
+    shares_a_corner = (ours[:, :, None, :] == theirs[:, None, :, :]).all(-1).any((1, 2))
+    assert shares_a_corner.all()
     np.testing.assert_array_equal(wide_hit[same], warp_hit[same])
     hit = same & (warp_hit[:, 0] >= 0)
     np.testing.assert_array_equal(wide_n[hit], warp_n[hit])
@@ -127,8 +132,8 @@ def test_queries_answer_as_warps_own() -> None:
 
 
 def test_a_refit_copies_the_moved_boxes_and_corners() -> None:
-    """After the points move and the mesh is refitted, ``refit`` brings the copy to the
-    mesh's answers again; without it the copy answers for the old points."""
+    """After the points move, ``refit`` brings the tree to the (refitted) mesh's answers
+    again; without it the tree answers for the old points."""
     rng = np.random.default_rng(3)
     points, indices = _test_mesh(rng)
     warp_points = wp.array(points, dtype=wp.vec3, device=CPU)
@@ -144,26 +149,59 @@ def test_a_refit_copies_the_moved_boxes_and_corners() -> None:
     _assert_same_answers(mesh, wide, o, d, max_t)
 
 
-@pytest.mark.parametrize(("triangles", "leaf_size"), [(1, 4), (3, 4), (5, 4), (7, 8), (9, 16)])
-def test_a_mesh_of_one_node(triangles: int, leaf_size: int) -> None:
-    """A mesh whose whole tree is one node answers as Warp's, with leaves of one to nine
-    triangles (a leaf's triangles are tested four at a time, the last group short)."""
+def _mesh(points: np.ndarray, indices: np.ndarray) -> wp.Mesh:
+    return wp.Mesh(wp.array(points, dtype=wp.vec3, device=CPU), wp.array(indices.ravel(), dtype=wp.int32, device=CPU))
+
+
+@pytest.mark.parametrize(("triangles", "max_leaf"), [(1, MAX_LEAF), (3, MAX_LEAF), (5, MAX_LEAF), (7, 8), (9, 16)])
+def test_a_mesh_of_one_leaf(triangles: int, max_leaf: int) -> None:
+    """Triangles that each span the unit cube (no plane separates them at a profit) make
+    one leaf of one to nine triangles (tested four at a time, the last group short), and
+    it answers as Warp's."""
     rng = np.random.default_rng(triangles)
-    points = rng.uniform(0.0, 1.0, (3 * triangles, 3)).astype(np.float32)
-    indices = np.arange(3 * triangles, dtype=np.int32)
-    mesh = wp.Mesh(
-        wp.array(points, dtype=wp.vec3, device=CPU),
-        wp.array(indices, dtype=wp.int32, device=CPU),
-        bvh_leaf_size=leaf_size,
-    )
-    wide = WideBVH(mesh, triangles)
+    cube = np.array([[0.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 1.0]], np.float32)
+    points = (cube[None] + rng.uniform(-0.05, 0.05, (triangles, 3, 3))).reshape(-1, 3).astype(np.float32)
+    mesh = _mesh(points, np.arange(3 * triangles, dtype=np.int32))
+    wide = WideBVH(mesh, triangles, max_leaf=max_leaf)
     assert wide.node_count == 1
-    if leaf_size > 4:  # one leaf of more than four triangles: two or three groups
-        assert wide.gpu.leaves.numpy().tolist() == [0, triangles]
+    assert wide.gpu.leaves.numpy().tolist() == [0, triangles]
     o = rng.uniform(-0.5, 1.5, (4000, 3)).astype(np.float32)
     d = (0.5 - o) + rng.normal(0.0, 0.3, (4000, 3)).astype(np.float32)
     d = (d / np.linalg.norm(d, axis=1)[:, None]).astype(np.float32)
     _assert_same_answers(mesh, wide, o, d, np.full(4000, 1.0e30, np.float32))
+
+
+def test_a_row_of_triangles_is_cut_into_leaves_of_four_neighbours() -> None:
+    """64 small triangles in a row, far apart: four of a leaf's triangles cost one test, so
+    the SAH cuts the row into 16 leaves of four neighbours each; the answers are Warp's."""
+    rng = np.random.default_rng(5)
+    centres = np.stack([np.arange(64, dtype=np.float32) * 4.0, np.zeros(64), np.zeros(64)], 1)
+    points = (centres[:, None, :] + rng.uniform(-0.5, 0.5, (64, 3, 3))).reshape(-1, 3).astype(np.float32)
+    mesh = _mesh(points, np.arange(3 * 64, dtype=np.int32))
+    wide = WideBVH(mesh, 64)
+    leaves = wide.gpu.leaves.numpy().reshape(-1, 2)
+    faces = wide.gpu.faces.numpy()
+    assert len(leaves) == 16 and (np.diff(leaves, axis=1) == 4).all()
+    assert all(np.ptp(faces[a:b]) == 3 for a, b in leaves)
+    o = rng.uniform([-2.0, -3.0, -3.0], [256.0, 3.0, 3.0], (4000, 3)).astype(np.float32)
+    d = rng.normal(size=(4000, 3))
+    d = (d / np.linalg.norm(d, axis=1)[:, None]).astype(np.float32)
+    _assert_same_answers(mesh, wide, o, d, np.full(4000, 1.0e30, np.float32))
+
+
+@pytest.mark.parametrize("max_depth", [0, 2, 5])
+def test_nodes_at_the_depth_limit_are_leaves_however_big(max_depth: int) -> None:
+    """A tree cut at ``max_depth`` (``MAX_DEPTH`` bounds every build, so the traversal's
+    stack never fills) ends there in leaves of more than ``MAX_LEAF`` triangles, and every
+    query still answers as Warp's."""
+    rng = np.random.default_rng(11)
+    points, indices = _test_mesh(rng)
+    mesh = _mesh(points, indices)
+    wide = WideBVH(mesh, len(indices), max_depth=max_depth)
+    leaves = wide.gpu.leaves.numpy().reshape(-1, 2)
+    assert len(leaves) == 2**max_depth and np.diff(leaves, axis=1).min() > MAX_LEAF
+    o, d, max_t = _rays(rng, 10000)
+    _assert_same_answers(mesh, wide, o, d, max_t)
 
 
 def test_an_empty_copy_misses_everything() -> None:

@@ -1,19 +1,19 @@
-"""A 4-wide copy of a ``wp.Mesh``'s BVH for the CPU tracer: the same boxes, four children
-to a node tested at once, and each leaf's triangles stored in order beside it.
+"""A 4-wide BVH over a ``wp.Mesh``'s triangles for the CPU tracer: four children to a
+node tested at once, and each leaf's triangles stored in order beside it.
 
 Warp's CPU ray queries walk a binary tree: each step loads two children and tests two
 boxes, and each leaf triangle is reached through two index lookups (the leaf's
-primitive list, then the mesh's vertex indices).  ``WideBVH`` collapses that same tree
-(Warp's SAH build, untouched) into nodes of up to four children -- a binary node's
-children, then the children of its largest child, until there are four or only leaves
--- whose boxes are stored as six 4-lane rows (low and high x, y, z), so one node is
-one 4-wide slab test (clang vector extensions, SSE on any x86-64), and copies each
-leaf's triangle corners into one array in leaf order.  Leaves keep Warp's triangles and
-its watertight triangle test (``intersect_ray_tri_woop``), the ray's part of it once per
-ray and the triangle's part for four of a leaf's triangles at once, each lane Warp's
-arithmetic operation for operation, so the answers are Warp's:
-the same face, distance and barycentrics (``tests/scene/device/test_wide_bvh.py``); a hit at
-exactly the same distance as another may be found in the other order.
+primitive list, then the mesh's vertex indices).  ``WideBVH`` builds a binary SAH tree
+of its own over the mesh's triangles and collapses it into nodes of up to four children
+(``wide_bvh_build.py``), whose boxes are stored as six 4-lane rows (low and high x, y,
+z), so one node is one 4-wide slab test (clang vector extensions, SSE on any x86-64),
+and copies each leaf's triangle corners into one array in leaf order.  Leaves keep
+Warp's triangles and its watertight triangle test (``intersect_ray_tri_woop``), the
+ray's part of it once per ray and the triangle's part for four of a leaf's triangles at
+once, each lane Warp's arithmetic operation for operation, so the answers are Warp's
+whatever the tree: the same face, distance and barycentrics
+(``tests/scene/device/test_wide_bvh.py``); a hit at exactly the same distance as another
+may be found in the other order.
 
 ``wide_closest`` is ``wp.mesh_query_ray`` (nearest hit, children visited near first,
 a child skipped once its entry distance is past the nearest hit); ``wide_any_hit`` is
@@ -22,17 +22,18 @@ a child skipped once its entry distance is past the nearest hit); ``wide_any_hit
 ray touches, and an axis the ray does not move along tests the origin against the slab
 (as Warp's robust test does), so rays along a box's face still enter it.  Measured on
 the staircase (262k triangles, one thread, 640x480 G-buffer points): a mirror ray's
-closest hit 1242 ns with Warp's query, 498 ns with this one; a shadow ray's any-hit
-913 ns and 315 ns (README, "4-wide BVH copies").
+closest hit 1242 ns with Warp's query, 498 ns with this one over Warp's own tree; a
+shadow ray's any-hit 913 ns and 315 ns (README, "4-wide BVH copies"); the tree of its own
+made both another 1.1-1.3x faster ("Re-measured on the AMD EPYC machine (2026-12-03)").
 
 CPU only: the tracer's CUDA variant keeps Warp's own queries (``TraceVariant.wide_bvh``),
 and the native code compiles to a stub under ``__CUDA_ARCH__``.  The scene's own copy is
 ``DeviceScene.wide_bvh`` (built on first use); the tracer's shadow BVHs have theirs
 (``trace/occluders.py``); the ray-cast primaries (``--primary raycast``, the fovea
 sampler's window samples) query the scene's copy too.  ``use_wide_bvh`` is the one rule
-for whether a pass queries the copies.  After the mesh is
-refitted (``wp.Mesh.refit``, animated points) ``refit`` copies the new boxes and
-corners; the tree's shape is Warp's and does not change on a refit.
+for whether a pass queries the copies.  After the mesh's points move (animated points)
+``refit`` copies the new corners and computes the boxes again; the tree's shape does
+not change on a refit.
 """
 
 from __future__ import annotations
@@ -40,13 +41,14 @@ from __future__ import annotations
 import warp as wp
 
 from ...errors import RenderSettingsError
+from .wide_bvh_build import MAX_DEPTH, MAX_LEAF, build_kernel, collapse_kernel, corners_kernel, refit_kernel
 
 #: Children per node.
 WIDTH = 4
 #: The traversal stack: up to three entries pushed a level (the nearest child is taken
-#: at once), so 96 entries hold 32 levels of the 4-wide tree (64 of Warp's binary one,
-#: whose own query stack holds 32).
-STACK_SIZE = 96
+#: at once), and the 4-wide tree is no deeper than the binary one it collapses
+#: (``wide_bvh_build.MAX_DEPTH`` levels), so the stack never fills.
+STACK_SIZE = 3 * (MAX_DEPTH + 1)
 #: ``children`` entry of an unused child slot.
 NO_CHILD = wp.constant(-(2**31))
 
@@ -65,140 +67,6 @@ class WideBVHGPU:
     corners: wp.array(dtype=wp.float32)
     faces: wp.array(dtype=wp.int32)
     nodes: int
-
-
-@wp.func_native(
-    """
-#if !defined(__CUDA_ARCH__)
-const wp::Mesh mesh = wp::mesh_get(id);
-const wp::BVH& bvh = mesh.bvh;
-const int root = *bvh.root;
-int wide = 1, leaf_count = 0;
-int work_node[4096], work_slot[4096], top = 0;
-auto is_leaf = [&](int k) { return bvh.node_lowers[k].b != 0; };
-auto area = [&](int k) {
-    const wp::BVHPackedNodeHalf& lo = bvh.node_lowers[k];
-    const wp::BVHPackedNodeHalf& hi = bvh.node_uppers[k];
-    const float x = hi.x - lo.x, y = hi.y - lo.y, z = hi.z - lo.z;
-    return x * y + y * z + z * x;
-};
-work_node[0] = root; work_slot[0] = 0; top = 1;
-while (top > 0) {
-    --top;
-    const int node = work_node[top], slot = work_slot[top];
-    int kids[4], n = 0;
-    if (is_leaf(node)) {
-        kids[n++] = node;
-    } else {
-        kids[n++] = (int)bvh.node_lowers[node].i;
-        kids[n++] = (int)bvh.node_uppers[node].i;
-    }
-    while (n < 4) {
-        int big = -1;
-        for (int j = 0; j < n; ++j)
-            if (!is_leaf(kids[j]) && (big < 0 || area(kids[j]) > area(kids[big]))) big = j;
-        if (big < 0) break;
-        const int split = kids[big];
-        kids[big] = (int)bvh.node_lowers[split].i;
-        kids[n++] = (int)bvh.node_uppers[split].i;
-    }
-    for (int j = 0; j < 4; ++j) {
-        const int at = 4 * slot + j;
-        if (j >= n) { children.data[at] = (int)0x80000000; source.data[at] = -1; continue; }
-        source.data[at] = kids[j];
-        if (is_leaf(kids[j])) {
-            leaves.data[2 * leaf_count] = (int)bvh.node_lowers[kids[j]].i;
-            leaves.data[2 * leaf_count + 1] = (int)bvh.node_uppers[kids[j]].i;
-            children.data[at] = -(leaf_count + 1);
-            ++leaf_count;
-        } else {
-            if (top >= 4096) { counts.data[0] = -1; return; }
-            children.data[at] = wide;
-            work_node[top] = kids[j]; work_slot[top] = wide; ++top;
-            ++wide;
-        }
-    }
-}
-counts.data[0] = wide;
-counts.data[1] = leaf_count;
-#endif
-"""
-)
-def _collapse(
-    id: wp.uint64,
-    children: wp.array(dtype=wp.int32),
-    source: wp.array(dtype=wp.int32),
-    leaves: wp.array(dtype=wp.int32),
-    counts: wp.array(dtype=wp.int32),
-): ...
-
-
-@wp.kernel(enable_backward=False)
-def collapse_kernel(
-    id: wp.uint64,
-    children: wp.array(dtype=wp.int32),
-    source: wp.array(dtype=wp.int32),
-    leaves: wp.array(dtype=wp.int32),
-    counts: wp.array(dtype=wp.int32),
-):
-    """Collapse the mesh's binary BVH into 4-wide nodes (one thread): ``children`` and
-    ``leaves`` as ``WideBVHGPU`` holds them, ``source`` the binary node behind each child
-    slot (-1 unused), ``counts`` (nodes, leaves), nodes -1 when the tree is too deep."""
-    _collapse(id, children, source, leaves, counts)
-
-
-@wp.func_native(
-    """
-#if !defined(__CUDA_ARCH__)
-const wp::BVH& bvh = wp::mesh_get(id).bvh;
-float* b = boxes.data + 24 * node;
-for (int j = 0; j < 4; ++j) {
-    const int k = source.data[4 * node + j];
-    if (k < 0) {
-        b[j] = b[4 + j] = b[8 + j] = __builtin_inff();
-        b[12 + j] = b[16 + j] = b[20 + j] = -__builtin_inff();
-        continue;
-    }
-    const wp::BVHPackedNodeHalf& lo = bvh.node_lowers[k];
-    const wp::BVHPackedNodeHalf& hi = bvh.node_uppers[k];
-    b[j] = lo.x; b[4 + j] = lo.y; b[8 + j] = lo.z;
-    b[12 + j] = hi.x; b[16 + j] = hi.y; b[20 + j] = hi.z;
-}
-#endif
-"""
-)
-def _node_boxes(id: wp.uint64, source: wp.array(dtype=wp.int32), boxes: wp.array(dtype=wp.float32), node: int): ...
-
-
-@wp.kernel(enable_backward=False)
-def node_boxes_kernel(id: wp.uint64, source: wp.array(dtype=wp.int32), boxes: wp.array(dtype=wp.float32)):
-    """Per wide node: its children's boxes from the mesh's BVH (empty slots hold an
-    inverted box no ray enters)."""
-    _node_boxes(id, source, boxes, wp.tid())
-
-
-@wp.func_native(
-    """
-#if !defined(__CUDA_ARCH__)
-const wp::Mesh mesh = wp::mesh_get(id);
-const int face = mesh.bvh.primitive_indices[k];
-faces.data[k] = face;
-for (int c = 0; c < 3; ++c) {
-    const wp::vec3 p = mesh.points[mesh.indices[3 * face + c]];
-    corners.data[9 * k + 3 * c] = p[0];
-    corners.data[9 * k + 3 * c + 1] = p[1];
-    corners.data[9 * k + 3 * c + 2] = p[2];
-}
-#endif
-"""
-)
-def _leaf_corners(id: wp.uint64, corners: wp.array(dtype=wp.float32), faces: wp.array(dtype=wp.int32), k: int): ...
-
-
-@wp.kernel(enable_backward=False)
-def leaf_corners_kernel(id: wp.uint64, corners: wp.array(dtype=wp.float32), faces: wp.array(dtype=wp.int32)):
-    """Per triangle in leaf order: its face and its three corners, copied from the mesh."""
-    _leaf_corners(id, corners, faces, wp.tid())
 
 
 # The traversal shared by both queries: ``ANY`` (0 or 1) picks the any-hit query.
@@ -435,17 +303,24 @@ def use_wide_bvh(setting: bool | None, device: wp.context.Device) -> bool:
 
 
 class WideBVH:
-    """The 4-wide copy of one CPU ``wp.Mesh``'s BVH (module docstring); ``gpu`` for kernels."""
+    """The 4-wide BVH over one CPU ``wp.Mesh``'s triangles (module docstring); ``gpu`` for kernels."""
 
-    def __init__(self, mesh: wp.Mesh | None, triangles: int, device: wp.context.Device | str | None = None) -> None:
-        """Collapse ``mesh``'s BVH (``triangles`` faces; None or 0: an empty tree, its
-        arrays on ``device``, default the mesh's or the CPU)."""
+    def __init__(
+        self,
+        mesh: wp.Mesh | None,
+        triangles: int,
+        device: wp.context.Device | str | None = None,
+        max_leaf: int = MAX_LEAF,
+        max_depth: int = MAX_DEPTH,
+    ) -> None:
+        """Build the tree over ``mesh``'s ``triangles`` faces (its points and indices; None or
+        0: an empty tree, its arrays on ``device``, default the mesh's or the CPU), leaves
+        of at most ``max_leaf`` triangles except at depth ``max_depth`` (``wide_bvh_build``)."""
         self.mesh = mesh
         dev = wp.get_device(device) if device is not None else mesh.device if mesh is not None else wp.get_device("cpu")
         g = WideBVHGPU()
         g.nodes = 0
         if mesh is None or triangles == 0:
-            self._source = wp.zeros(1, dtype=wp.int32, device=dev)
             g.boxes = wp.zeros(1, dtype=wp.float32, device=dev)
             g.children = wp.zeros(1, dtype=wp.int32, device=dev)
             g.leaves = wp.zeros(1, dtype=wp.int32, device=dev)
@@ -455,22 +330,40 @@ class WideBVH:
             return
         if not dev.is_cpu:
             raise ValueError("WideBVH is the CPU tracer's; on CUDA the tracer uses Warp's own queries")
-        # Warp's tree has fewer than 2 T nodes; a 4-wide one has at most as many nodes and leaves.
-        cap = 2 * triangles
-        children = wp.empty(WIDTH * cap, dtype=wp.int32, device=dev)
-        source = wp.empty(WIDTH * cap, dtype=wp.int32, device=dev)
-        leaves = wp.empty(2 * cap, dtype=wp.int32, device=dev)
+        if max_leaf < 1 or not 0 <= max_depth <= MAX_DEPTH:
+            raise ValueError(f"max_leaf {max_leaf} must be at least 1 and max_depth {max_depth} in 0..{MAX_DEPTH}")
+        # A binary tree of at most T leaves has fewer than 2 T nodes; the 4-wide one has fewer
+        # nodes than the binary one has inner nodes, and as many leaves (both at most T).
+        g.faces = wp.empty(triangles, dtype=wp.int32, device=dev)
+        node_box = wp.empty(12 * triangles, dtype=wp.float32, device=dev)
+        node_a = wp.empty(2 * triangles, dtype=wp.int32, device=dev)
+        node_b = wp.empty(2 * triangles, dtype=wp.int32, device=dev)
+        scratch = wp.empty(6 * triangles, dtype=wp.float32, device=dev)
+        build_inputs = [
+            mesh.points,
+            mesh.indices,
+            triangles,
+            max_leaf,
+            max_depth,
+            scratch,
+            g.faces,
+            node_box,
+            node_a,
+            node_b,
+        ]
+        wp.launch(build_kernel, 1, build_inputs, device=dev)
+        del scratch
+        children = wp.empty(WIDTH * triangles, dtype=wp.int32, device=dev)
+        leaves = wp.empty(2 * triangles, dtype=wp.int32, device=dev)
         counts = wp.zeros(2, dtype=wp.int32, device=dev)
-        wp.launch(collapse_kernel, 1, [wp.uint64(mesh.id), children, source, leaves, counts], device=dev)
+        wp.launch(collapse_kernel, 1, [node_box, node_a, node_b, children, leaves, counts], device=dev)
+        del node_box, node_a, node_b
         nodes, leaf_count = (int(v) for v in counts.numpy())
-        if nodes <= 0:
-            raise ValueError(f"the mesh's BVH is deeper than a {WIDTH}-wide copy can hold")
-        self._source = wp.array(source.numpy()[: WIDTH * nodes], dtype=wp.int32, device=dev)
         g.children = wp.array(children.numpy()[: WIDTH * nodes], dtype=wp.int32, device=dev)
         g.leaves = wp.array(leaves.numpy()[: 2 * leaf_count], dtype=wp.int32, device=dev)
+        del children, leaves
         g.boxes = wp.empty(24 * nodes, dtype=wp.float32, device=dev)
         g.corners = wp.empty(9 * triangles, dtype=wp.float32, device=dev)
-        g.faces = wp.empty(triangles, dtype=wp.int32, device=dev)
         g.nodes = nodes
         self.gpu = g
         self.refit()
@@ -481,9 +374,12 @@ class WideBVH:
         return int(self.gpu.nodes)
 
     def refit(self) -> None:
-        """Copy the mesh's boxes and corners again (after ``wp.Mesh.refit``)."""
+        """Copy the mesh's corners again and compute every box from them (after its points
+        moved; the tree's shape stays)."""
         if self.gpu.nodes == 0:
             return
-        g, dev, mid = self.gpu, self.mesh.device, wp.uint64(self.mesh.id)
-        wp.launch(node_boxes_kernel, g.nodes, [mid, self._source, g.boxes], device=dev)
-        wp.launch(leaf_corners_kernel, g.faces.shape[0], [mid, g.corners, g.faces], device=dev)
+        g, dev = self.gpu, self.mesh.device
+        wp.launch(
+            corners_kernel, g.faces.shape[0], [self.mesh.points, self.mesh.indices, g.faces, g.corners], device=dev
+        )
+        wp.launch(refit_kernel, 1, [g.children, g.leaves, g.corners, g.boxes, g.nodes], device=dev)

@@ -47,7 +47,7 @@ HOST_BYTES_PER_PIXEL = 3 + 12 + 64
 #: Device bytes per triangle besides its arrays: the main BVH and the shadow BVHs.
 BVH_BYTES_PER_TRIANGLE = 128
 #: On the CPU, the 4-wide BVHs over those triangles that the tracer and the ray-cast
-#: primaries query (``scene/device/wide_bvh.py``): 51-53 bytes a triangle each measured
+#: primaries query (``scene/device/wide_bvh.py``): 52-55 bytes a triangle each measured
 #: on the shared scenes, and the scene's and the opaque shadow one hold nearly every
 #: triangle.  (Their build's scratch, at most 116 bytes a triangle, lives only while one
 #: is built.)

@@ -6,7 +6,8 @@ boxes, and each leaf triangle is reached through two index lookups (the leaf's
 primitive list, then the mesh's vertex indices).  ``WideBVH`` builds a binary SAH tree
 of its own over the mesh's triangles and collapses it into nodes of up to four children
 (``wide_bvh_build.py``), whose boxes are stored as six 4-lane rows (low and high x, y,
-z), so one node is one 4-wide slab test (clang vector extensions, SSE on any x86-64),
+z) beside its four children in 128 bytes, so one node is two cache lines and one 4-wide
+slab test (clang vector extensions, SSE on any x86-64),
 and copies each leaf's triangle corners into one array in leaf order.  Leaves keep
 Warp's triangles and its watertight triangle test (``intersect_ray_tri_woop``), the
 ray's part of it once per ray and the triangle's part for four of a leaf's triangles at
@@ -38,10 +39,21 @@ not change on a refit.
 
 from __future__ import annotations
 
+import numpy as np
 import warp as wp
 
 from ...errors import RenderSettingsError
-from .wide_bvh_build import MAX_DEPTH, MAX_LEAF, build_kernel, collapse_kernel, corners_kernel, refit_kernel
+from .wide_bvh_build import (
+    CHILD_LANES,
+    MAX_DEPTH,
+    MAX_LEAF,
+    NO_CHILD_C,
+    NODE_FLOATS,
+    build_kernel,
+    collapse_kernel,
+    corners_kernel,
+    refit_kernel,
+)
 
 #: Children per node.
 WIDTH = 4
@@ -49,20 +61,19 @@ WIDTH = 4
 #: at once), and the 4-wide tree is no deeper than the binary one it collapses
 #: (``wide_bvh_build.MAX_DEPTH`` levels), so the stack never fills.
 STACK_SIZE = 3 * (MAX_DEPTH + 1)
-#: ``children`` entry of an unused child slot.
-NO_CHILD = wp.constant(-(2**31))
 
 
 @wp.struct
 class WideBVHGPU:
-    """The kernel-side tree.  ``boxes``: 24 floats a node (low x, y, z then high x, y, z,
-    4 lanes each); ``children``: 4 a node (>= 0 a node, ``-(leaf + 1)`` a leaf,
-    ``NO_CHILD`` unused); ``leaves``: 2 a leaf (first and end triangle in leaf order);
-    ``corners``: 9 floats a triangle in leaf order; ``faces``: the mesh's face of each;
-    ``nodes``: 0 for an empty mesh (every query misses)."""
+    """The kernel-side tree.  ``node_data``: ``NODE_FLOATS`` (32) floats a node, 128 bytes
+    (two cache lines, one load of a node): its four children's boxes (low x, y, z then
+    high x, y, z, 4 lanes each; 24 floats), then from ``CHILD_LANES`` the four children
+    as int32 bits (>= 0 a node, ``-(leaf + 1)`` a leaf, ``NO_CHILD`` none), then 4
+    unused; ``leaves``: 2 a leaf (first and end triangle in leaf order); ``corners``: 9
+    floats a triangle in leaf order; ``faces``: the mesh's face of each; ``nodes``: 0
+    for an empty mesh (every query misses)."""
 
-    boxes: wp.array(dtype=wp.float32)
-    children: wp.array(dtype=wp.int32)
+    node_data: wp.array(dtype=wp.float32)
     leaves: wp.array(dtype=wp.int32)
     corners: wp.array(dtype=wp.float32)
     faces: wp.array(dtype=wp.int32)
@@ -70,15 +81,15 @@ class WideBVHGPU:
 
 
 # The traversal shared by both queries: ``ANY`` (0 or 1) picks the any-hit query.
-_TRAVERSE = """
+_TRAVERSE = (
+    """
 #if defined(__CUDA_ARCH__)
 return MISS;
 #else
 typedef float v4f __attribute__((ext_vector_type(4)));
 typedef int v4i __attribute__((ext_vector_type(4)));
 if (nodes <= 0) return MISS;
-const float* nb = boxes.data;
-const int* nc = children.data;
+const float* nb = node_data.data;
 const int* lv = leaves.data;
 const float* tv = corners.data;
 // An axis the ray does not move along: the ray is in a box's slab for every t when its
@@ -106,7 +117,7 @@ if (d[kz] < 0.0f) { const int tmp = kx; kx = ky; ky = tmp; }
 const float Sx = d[kx] / d[kz];
 const float Sy = d[ky] / d[kz];
 const float Sz = 1.0f / d[kz];
-const int none = (int)0x80000000;
+const int none = NO_CHILD;
 float best = max_t;
 int best_k = -1;
 float best_u = 0.0f, best_v = 0.0f;
@@ -116,7 +127,7 @@ int sp = 0;
 int cur = 0;
 while (true) {
     while (cur >= 0) {
-        const float* b = nb + 24 * cur;
+        const float* b = nb + NODE_FLOATS * cur;
         v4f t0x = (*(const v4f*)(b + 0) - ox) * ix, t1x = (*(const v4f*)(b + 12) - ox) * ix;
         v4f t0y = (*(const v4f*)(b + 4) - oy) * iy, t1y = (*(const v4f*)(b + 16) - oy) * iy;
         v4f t0z = (*(const v4f*)(b + 8) - oz) * iz, t1z = (*(const v4f*)(b + 20) - oz) * iz;
@@ -129,7 +140,7 @@ while (true) {
         const v4f far_t = __builtin_elementwise_min(
             __builtin_elementwise_min(__builtin_elementwise_max(t0x, t1x), __builtin_elementwise_max(t0y, t1y)),
             __builtin_elementwise_max(t0z, t1z)) * widen;
-        const int* c = nc + 4 * cur;
+        const int* c = (const int*)(b + CHILD_LANES);
         int hit_c[4];
         float hit_t[4];
         int hits = 0;
@@ -211,6 +222,10 @@ if (best_k < 0) return MISS;
 return FOUND;
 #endif
 """.replace("STACK", str(STACK_SIZE))
+    .replace("NODE_FLOATS", str(NODE_FLOATS))
+    .replace("CHILD_LANES", str(CHILD_LANES))
+    .replace("NO_CHILD", NO_CHILD_C)
+)
 
 #: (face, t, u, v, normal x, y, z, 1) of a hit; all -1 for none.
 _hit8 = wp.types.vector(length=8, dtype=wp.float32)
@@ -232,8 +247,7 @@ _ANY = _TRAVERSE.replace("MISS", "false").replace("if (ANY) return HIT;", "retur
 
 @wp.func_native(_CLOSEST)
 def _closest(
-    boxes: wp.array(dtype=wp.float32),
-    children: wp.array(dtype=wp.int32),
+    node_data: wp.array(dtype=wp.float32),
     leaves: wp.array(dtype=wp.int32),
     corners: wp.array(dtype=wp.float32),
     faces: wp.array(dtype=wp.int32),
@@ -246,8 +260,7 @@ def _closest(
 
 @wp.func_native(_ANY)
 def _any(
-    boxes: wp.array(dtype=wp.float32),
-    children: wp.array(dtype=wp.int32),
+    node_data: wp.array(dtype=wp.float32),
     leaves: wp.array(dtype=wp.int32),
     corners: wp.array(dtype=wp.float32),
     faces: wp.array(dtype=wp.int32),
@@ -274,7 +287,7 @@ class WideHit:
 @wp.func
 def wide_closest(bvh: WideBVHGPU, o: wp.vec3, d: wp.vec3, max_t: float) -> WideHit:
     """The nearest hit of the ray ``o + t d``, 0 <= t < ``max_t`` (``wp.mesh_query_ray``)."""
-    r = _closest(bvh.boxes, bvh.children, bvh.leaves, bvh.corners, bvh.faces, bvh.nodes, o, d, max_t)
+    r = _closest(bvh.node_data, bvh.leaves, bvh.corners, bvh.faces, bvh.nodes, o, d, max_t)
     h = WideHit()
     h.result = r[7] > 0.0
     h.face = int(r[0])
@@ -289,7 +302,7 @@ def wide_closest(bvh: WideBVHGPU, o: wp.vec3, d: wp.vec3, max_t: float) -> WideH
 def wide_any_hit(bvh: WideBVHGPU, o: wp.vec3, d: wp.vec3, max_t: float) -> bool:
     """Whether the ray ``o + t d`` hits any triangle at 0 <= t < ``max_t``
     (``wp.mesh_query_ray_anyhit``)."""
-    return _any(bvh.boxes, bvh.children, bvh.leaves, bvh.corners, bvh.faces, bvh.nodes, o, d, max_t)
+    return _any(bvh.node_data, bvh.leaves, bvh.corners, bvh.faces, bvh.nodes, o, d, max_t)
 
 
 def use_wide_bvh(setting: bool | None, device: wp.context.Device) -> bool:
@@ -321,8 +334,7 @@ class WideBVH:
         g = WideBVHGPU()
         g.nodes = 0
         if mesh is None or triangles == 0:
-            g.boxes = wp.zeros(1, dtype=wp.float32, device=dev)
-            g.children = wp.zeros(1, dtype=wp.int32, device=dev)
+            g.node_data = wp.zeros(1, dtype=wp.float32, device=dev)
             g.leaves = wp.zeros(1, dtype=wp.int32, device=dev)
             g.corners = wp.zeros(1, dtype=wp.float32, device=dev)
             g.faces = wp.zeros(1, dtype=wp.int32, device=dev)
@@ -359,10 +371,13 @@ class WideBVH:
         wp.launch(collapse_kernel, 1, [node_box, node_a, node_b, children, leaves, counts], device=dev)
         del node_box, node_a, node_b
         nodes, leaf_count = (int(v) for v in counts.numpy())
-        g.children = wp.array(children.numpy()[: WIDTH * nodes], dtype=wp.int32, device=dev)
+        node_data = np.zeros((nodes, NODE_FLOATS), np.float32)  # the boxes come from refit
+        node_data.view(np.int32)[:, CHILD_LANES : CHILD_LANES + WIDTH] = children.numpy()[: WIDTH * nodes].reshape(
+            -1, 4
+        )
+        g.node_data = wp.array(node_data.ravel(), dtype=wp.float32, device=dev)
         g.leaves = wp.array(leaves.numpy()[: 2 * leaf_count], dtype=wp.int32, device=dev)
         del children, leaves
-        g.boxes = wp.empty(24 * nodes, dtype=wp.float32, device=dev)
         g.corners = wp.empty(9 * triangles, dtype=wp.float32, device=dev)
         g.nodes = nodes
         self.gpu = g
@@ -382,4 +397,4 @@ class WideBVH:
         wp.launch(
             corners_kernel, g.faces.shape[0], [self.mesh.points, self.mesh.indices, g.faces, g.corners], device=dev
         )
-        wp.launch(refit_kernel, 1, [g.children, g.leaves, g.corners, g.boxes, g.nodes], device=dev)
+        wp.launch(refit_kernel, 1, [g.node_data, g.leaves, g.corners, g.nodes], device=dev)

@@ -38,6 +38,13 @@ TRAVERSAL_COST = 1.0
 GROUP_COST = 1.0
 #: The most triangles a leaf holds unless a node is at ``MAX_DEPTH`` (the SAH decides below).
 MAX_LEAF = 8
+#: Floats a 4-wide node takes (``wide_bvh.WideBVHGPU.node_data``): 24 of boxes, 4 children
+#: (int32 bits) from ``CHILD_LANES``, 4 unused: 128 bytes.
+NODE_FLOATS = 32
+CHILD_LANES = 24
+#: A child slot's entry for no child (and the native code's spelling of it).
+NO_CHILD = -(2**31)
+NO_CHILD_C = f"(int){NO_CHILD & 0xFFFFFFFF:#x}"
 #: The deepest a binary node may be (depth 0 is the root; a build may ask for less); a
 #: node there is a leaf, however many triangles it holds.
 MAX_DEPTH = 60
@@ -241,7 +248,7 @@ while (top > 0) {
     }
     for (int j = 0; j < 4; ++j) {
         const int at = 4 * slot + j;
-        if (j >= n) { children.data[at] = (int)0x80000000; continue; }
+        if (j >= n) { children.data[at] = NO_CHILD; continue; }
         if (is_leaf(kids[j])) {
             leaves.data[2 * leaf_count] = -node_a.data[kids[j]] - 1;
             leaves.data[2 * leaf_count + 1] = node_b.data[kids[j]];
@@ -257,7 +264,7 @@ while (top > 0) {
 counts.data[0] = wide;
 counts.data[1] = leaf_count;
 #endif
-""".replace("MAX_DEPTH", str(MAX_DEPTH))
+""".replace("MAX_DEPTH", str(MAX_DEPTH)).replace("NO_CHILD", NO_CHILD_C)
 )
 def _collapse(
     node_box: wp.array(dtype=wp.float32),
@@ -323,11 +330,12 @@ def corners_kernel(
 #if !defined(__CUDA_ARCH__)
 const float inf = __builtin_inff();
 for (int node = nodes - 1; node >= 0; --node) {
-    float* b = boxes.data + 24 * node;
+    float* b = node_data.data + NODE_FLOATS * node;
+    const int* children = (const int*)(b + CHILD_LANES);
     for (int j = 0; j < 4; ++j) {
         float lo[3] = {inf, inf, inf}, hi[3] = {-inf, -inf, -inf};
-        const int c = children.data[4 * node + j];
-        if (c == (int)0x80000000) {
+        const int c = children[j];
+        if (c == NO_CHILD) {
         } else if (c < 0) {
             const int leaf = -c - 1;
             for (int t = leaves.data[2 * leaf]; t < leaves.data[2 * leaf + 1]; ++t)
@@ -338,7 +346,7 @@ for (int node = nodes - 1; node >= 0; --node) {
                         hi[a] = wp::max(hi[a], x);
                     }
         } else {
-            const float* cb = boxes.data + 24 * c;
+            const float* cb = node_data.data + NODE_FLOATS * c;
             for (int a = 0; a < 3; ++a)
                 for (int q = 0; q < 4; ++q) {
                     lo[a] = wp::min(lo[a], cb[4 * a + q]);
@@ -349,26 +357,26 @@ for (int node = nodes - 1; node >= 0; --node) {
     }
 }
 #endif
-"""
+""".replace("NODE_FLOATS", str(NODE_FLOATS))
+    .replace("CHILD_LANES", str(CHILD_LANES))
+    .replace("NO_CHILD", NO_CHILD_C)
 )
 def _refit(
-    children: wp.array(dtype=wp.int32),
+    node_data: wp.array(dtype=wp.float32),
     leaves: wp.array(dtype=wp.int32),
     corners: wp.array(dtype=wp.float32),
-    boxes: wp.array(dtype=wp.float32),
     nodes: int,
 ): ...
 
 
 @wp.kernel
 def refit_kernel(
-    children: wp.array(dtype=wp.int32),
+    node_data: wp.array(dtype=wp.float32),
     leaves: wp.array(dtype=wp.int32),
     corners: wp.array(dtype=wp.float32),
-    boxes: wp.array(dtype=wp.float32),
     nodes: int,
 ):
     """Every node's four child boxes (one thread, the last node first): a leaf's from its
     triangles' corners, a node's as the union of its own four, an unused slot an inverted
-    box no ray enters."""
-    _refit(children, leaves, corners, boxes, nodes)
+    box no ray enters; the children are read from the node itself."""
+    _refit(node_data, leaves, corners, nodes)

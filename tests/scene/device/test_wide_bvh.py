@@ -100,6 +100,10 @@ def _rays(rng: np.random.Generator, n: int) -> tuple[np.ndarray, np.ndarray, np.
     return o, d, max_t
 
 
+def _mesh(points: np.ndarray, indices: np.ndarray) -> wp.Mesh:
+    return wp.Mesh(wp.array(points, dtype=wp.vec3, device=CPU), wp.array(indices.ravel(), dtype=wp.int32, device=CPU))
+
+
 def _assert_same_answers(mesh: wp.Mesh, wide: WideBVH, o: np.ndarray, d: np.ndarray, max_t: np.ndarray) -> None:
     warp_hit, warp_n, warp_block = _queries(_warp_queries, wp.uint64(mesh.id), o, d, max_t)
     wide_hit, wide_n, wide_block = _queries(_wide_queries, wide.gpu, o, d, max_t)
@@ -122,7 +126,7 @@ def test_queries_answer_as_warps_own() -> None:
     random, axis-aligned, edge-grazing and zero-length rays and segments."""
     rng = np.random.default_rng(7)
     points, indices = _test_mesh(rng)
-    mesh = wp.Mesh(wp.array(points, dtype=wp.vec3, device=CPU), wp.array(indices.ravel(), dtype=wp.int32, device=CPU))
+    mesh = _mesh(points, indices)
     wide = WideBVH(mesh, len(indices))
     assert 0 < wide.node_count < len(indices)
     o, d, max_t = _rays(rng, 40000)
@@ -147,10 +151,6 @@ def test_a_refit_copies_the_moved_boxes_and_corners() -> None:
     assert (stale[:, 1] != fresh[:, 1]).mean() > 0.1
     wide.refit()
     _assert_same_answers(mesh, wide, o, d, max_t)
-
-
-def _mesh(points: np.ndarray, indices: np.ndarray) -> wp.Mesh:
-    return wp.Mesh(wp.array(points, dtype=wp.vec3, device=CPU), wp.array(indices.ravel(), dtype=wp.int32, device=CPU))
 
 
 @pytest.mark.parametrize(("triangles", "max_leaf"), [(1, MAX_LEAF), (3, MAX_LEAF), (5, MAX_LEAF), (7, 8), (9, 16)])

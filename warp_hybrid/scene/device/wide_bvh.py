@@ -373,7 +373,7 @@ class WideBVH:
         nodes, leaf_count = (int(v) for v in counts.numpy())
         node_data = np.zeros((nodes, NODE_FLOATS), np.float32)  # the boxes come from refit
         node_data.view(np.int32)[:, CHILD_LANES : CHILD_LANES + WIDTH] = children.numpy()[: WIDTH * nodes].reshape(
-            -1, 4
+            -1, WIDTH
         )
         g.node_data = wp.array(node_data.ravel(), dtype=wp.float32, device=dev)
         g.leaves = wp.array(leaves.numpy()[: 2 * leaf_count], dtype=wp.int32, device=dev)

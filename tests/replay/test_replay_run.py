@@ -19,7 +19,7 @@ from gaze.fixed import FixedSource
 from gaze.source import GazeSample
 from warp_hybrid.renderer import RenderSettings
 from warp_hybrid.replay.loop import FRAME_STAGES, AdaptiveLoop, LoopSettings
-from warp_hybrid.replay.run import ReplayOutputs, SteadyGaze, replay
+from warp_hybrid.replay.run import ReplayInterrupted, ReplayOutputs, SteadyGaze, _Interrupts, replay
 from warp_hybrid.replay.stats_csv import FIXED_COLUMNS, read_stats, stats_columns
 from warp_hybrid.scene.open import open_scene_source
 
@@ -115,6 +115,34 @@ def test_a_failing_gaze_source_holds_the_last_valid_point() -> None:
     assert [s.valid for s in samples] == [True, True, False, False, False]
     assert all((s.x, s.y) == pytest.approx((0.7, 0.2)) for s in samples)
     assert steady.failure == "camera unplugged"
+
+
+def _signal_self(sig: int) -> None:
+    """Send ``sig`` to this process and give its handler the bytecodes to run in."""
+    os.kill(os.getpid(), sig)
+    for _ in range(100):
+        time.sleep(0.001)
+
+
+@pytest.mark.parametrize(("sig", "raised"), [(signal.SIGTERM, ReplayInterrupted), (signal.SIGINT, KeyboardInterrupt)])
+def test_an_interruption_while_a_frame_is_written_waits_for_its_last_output(sig: int, raised: type) -> None:
+    """A signal between a frame's video frame and its CSV row (the replay's race) is held
+    until both are written; outside the writes it interrupts at once."""
+    interrupts = _Interrupts()
+    written = []
+    before = signal.getsignal(sig)
+    with interrupts.installed():
+        with pytest.raises(raised):
+            with interrupts.writing():
+                written.append("video frame")
+                _signal_self(sig)
+                written.append("csv row")
+        assert written == ["video frame", "csv row"]
+        with pytest.raises(raised):
+            _signal_self(sig)
+            written.append("never")
+    assert written == ["video frame", "csv row"]
+    assert signal.getsignal(sig) == before  # the replay's handlers are gone after it
 
 
 def test_sigterm_mid_replay_leaves_a_playable_video_and_whole_rows(tmp_path: Path) -> None:

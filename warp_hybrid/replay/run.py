@@ -39,7 +39,7 @@ from .video import VideoWriter
 
 
 class ReplayInterrupted(KeyboardInterrupt):
-    """SIGTERM during a replay (Ctrl-C raises ``KeyboardInterrupt`` itself)."""
+    """SIGTERM during a replay (Ctrl-C raises ``KeyboardInterrupt``)."""
 
 
 class SteadyGaze:
@@ -105,21 +105,48 @@ class ReplayResult:
     gaze_failure: str | None = None
 
 
-@contextmanager
-def _sigterm_interrupts() -> Iterator[None]:
-    """Turn SIGTERM into ``ReplayInterrupted`` while the replay runs (main thread only)."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
+class _Interrupts:
+    """Ctrl-C (SIGINT) and SIGTERM during a replay (main thread only): raised at once
+    (``KeyboardInterrupt``, ``ReplayInterrupted``) while a frame renders, but held back
+    while the frame's outputs are written (``writing``) and raised when they are, so
+    the video, the CSV and the frames folder always hold the same frames."""
 
-    def handler(signum: int, frame: object) -> None:
-        raise ReplayInterrupted()
+    def __init__(self) -> None:
+        """Not installed until entered."""
+        self.pending: KeyboardInterrupt | None = None
+        self.held = False
 
-    previous = signal.signal(signal.SIGTERM, handler)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, previous)
+    def _handler(self, signum: int, frame: object) -> None:
+        exc = ReplayInterrupted() if signum == signal.SIGTERM else KeyboardInterrupt()
+        if self.held:
+            self.pending = exc
+            return
+        raise exc
+
+    @contextmanager
+    def installed(self) -> Iterator[None]:
+        """The handlers for SIGINT and SIGTERM while the replay runs (none off the main thread)."""
+        if threading.current_thread() is not threading.main_thread():
+            yield
+            return
+        previous = {sig: signal.signal(sig, self._handler) for sig in (signal.SIGINT, signal.SIGTERM)}
+        try:
+            yield
+        finally:
+            for sig, handler in previous.items():
+                signal.signal(sig, handler)
+
+    @contextmanager
+    def writing(self) -> Iterator[None]:
+        """Hold an interruption back until the block ends, then raise it."""
+        self.held = True
+        try:
+            yield
+        finally:
+            self.held = False
+        if self.pending is not None:
+            exc, self.pending = self.pending, None
+            raise exc
 
 
 def overlay_geometry(frame: LoopFrame) -> tuple[Any, ...] | None:
@@ -190,24 +217,26 @@ def replay(
     errors = FrameErrors(loop, outputs.error_spp) if outputs.errors else None
     if loop.saccade is not None:
         loop.saccade.screen = getattr(gaze, "screen", loop.saccade.screen)  # the geometry of its I-VT labels
+    interrupts = _Interrupts()
     try:
-        with _sigterm_interrupts(), Progress(frames, enabled=progress) as bar:
+        with interrupts.installed(), Progress(frames, enabled=progress) as bar:
             for i in range(frames):
                 t = settings.start + i / settings.fps
                 if loop.saccade is not None:
                     for between in recorded_times(gaze, t - 1.0 / settings.fps, t):
                         loop.saccade.add(steady.sample(between))
                 frame = loop.step(t, steady.sample(t))
-                if video is not None:
-                    video.write(_overlaid(frame) if outputs.overlay else frame.frame.image)
-                if stats is not None:
-                    stats.write_row(frame.row())
-                if outputs.frames_dir is not None:
-                    write_png(outputs.frames_dir / f"frame_{i:05d}.png", frame.frame.image)
-                slim.append({"frame_ms": frame.frame_ms, "traced_fraction": frame.traced_fraction})
+                with interrupts.writing():
+                    if video is not None:
+                        video.write(_overlaid(frame) if outputs.overlay else frame.frame.image)
+                    if stats is not None:
+                        stats.write_row(frame.row())
+                    if outputs.frames_dir is not None:
+                        write_png(outputs.frames_dir / f"frame_{i:05d}.png", frame.frame.image)
+                    slim.append({"frame_ms": frame.frame_ms, "traced_fraction": frame.traced_fraction})
+                    if errors is not None:
+                        errors.keep(frame)
                 bar.update(frame.within_budget)
-                if errors is not None:
-                    errors.keep(frame)
                 if on_frame is not None:
                     on_frame(frame)
     except KeyboardInterrupt:

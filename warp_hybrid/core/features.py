@@ -34,7 +34,7 @@ class SceneFeatures:
     transparency: bool = _effect(traced=True)
     blending: bool = _effect(traced=True)
     environment: bool = _effect(traced=True)
-    emission: bool = _effect(traced=True)
+    emission: bool = _effect(traced=False)
     cutouts: bool = _effect(traced=True)
     indirect: bool = _effect(traced=True)
     textures: bool = _effect(traced=False)

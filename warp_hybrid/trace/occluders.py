@@ -2,18 +2,19 @@
 
 A shadow ray only needs to know whether an *opaque* surface blocks it, which an
 any-hit query answers (it stops at the first triangle found); only the few surfaces
-that let light through or emit it (transmissive, alpha cut-out and emissive
-materials) need the ordered closest-hit walk that multiplies their tints.  So the
-tracer keeps
+that let light through (transmissive and alpha cut-out materials) need the ordered
+closest-hit walk that multiplies their tints.  Emitters (an area light's own
+geometry, which every ray toward that light's centre ends on) cast no shadow at all,
+so they are in neither BVH.  So the tracer keeps
 
-* ``opaque``: a ``wp.Mesh`` of every other triangle, queried with
+* ``opaque``: a ``wp.Mesh`` of the other triangles, queried with
   ``wp.mesh_query_ray_anyhit``;
-* ``special``: a ``wp.Mesh`` of the transmissive, cut-out and emissive triangles,
-  walked with ``wp.mesh_query_ray``; ``special_faces`` maps its faces back to scene
-  triangle ids (materials, textures, normals).
+* ``special``: a ``wp.Mesh`` of the transmissive and cut-out triangles, walked with
+  ``wp.mesh_query_ray``; ``special_faces`` maps its faces back to scene triangle ids
+  (materials, textures, normals).
 
-When every triangle is opaque the scene's own BVH serves as ``opaque`` and nothing
-is built.  Both meshes share the ``DeviceScene``'s points array, so after an animated
+When every triangle is opaque and none emits, the scene's own BVH serves as
+``opaque`` and nothing is built.  Both meshes share the ``DeviceScene``'s points array, so after an animated
 update they are refitted, not rebuilt.
 
 With ``wide`` (the CPU's default, ``TraceSettings.wide_bvh``) each of the two also has
@@ -36,8 +37,8 @@ from ..scene.model import Material
 
 @wp.struct
 class OccluderGPU:
-    """The shadow BVHs (below): opaque triangles (any-hit) and the
-    transmissive/cut-out/emissive ones (ordered walk), ``special_faces`` mapping the
+    """The shadow BVHs (below): opaque triangles (any-hit) and the transmissive and
+    cut-out ones (ordered walk; emitters are in neither), ``special_faces`` mapping the
     latter's faces to scene triangle ids; an id of 0 means empty.  ``*_wide``: the 4-wide
     copies of the two and of the scene's BVH (``scene_wide``; CPU only, else empty)."""
 
@@ -49,10 +50,16 @@ class OccluderGPU:
     scene_wide: WideBVHGPU
 
 
+def casts_shadow(m: Material) -> bool:
+    """Shadow rays see this material's surfaces at all: every material but an emitter's
+    (emitters do not cast shadows)."""
+    return not m.is_emissive
+
+
 def lets_light_through(m: Material) -> bool:
-    """Shadow rays must look at this material's surfaces one by one (it is transmissive,
-    alpha-tested or emissive; emitters do not cast shadows)."""
-    return m.is_transmissive or m.is_cutout or m.is_emissive
+    """Shadow rays must look at this material's surfaces one by one (it is transmissive
+    or alpha-tested)."""
+    return m.is_transmissive or m.is_cutout
 
 
 class Occluders:
@@ -65,27 +72,29 @@ class Occluders:
         self.wide = wide
         self._geometry_version = scene.geometry_version
         self._materials_version = scene.materials_version
-        special_mat = np.array([lets_light_through(m) for m in scene.scene.materials] or [False], dtype=bool)
+        mats = scene.scene.materials
         tri_mat = np.asarray(scene.scene.triangle_material, dtype=np.int64)
-        special = special_mat[tri_mat] if len(tri_mat) else np.zeros(0, dtype=bool)
+        casting = np.array([casts_shadow(m) for m in mats] or [True], dtype=bool)[tri_mat]
+        special = casting & np.array([lets_light_through(m) for m in mats] or [False], dtype=bool)[tri_mat]
+        opaque_tris = casting & ~special
         self.special_count = int(special.sum())
-        indices = np.asarray(scene.scene.indices, dtype=np.int32)
+        self.opaque_count = int(opaque_tris.sum())
+        indices = np.asarray(scene.scene.indices, dtype=np.int32).reshape(-1, 3)
         dev = scene.device
         self._meshes: list[wp.Mesh] = []
         g = OccluderGPU()
         scene_wide = scene.query_bvh(wide)
-        if self.special_count == 0:
+        if opaque_tris.all():
             g.opaque = wp.uint64(scene.mesh.id if scene.mesh is not None else 0)
-            g.special = wp.uint64(0)
-            faces = np.zeros(1, dtype=np.int32)
-            opaque_wide, special_wide = scene_wide, self._wide(None, 0)
+            opaque_wide = scene_wide
         else:
-            opaque, special_mesh = self._mesh(indices[~special]), self._mesh(indices[special])
+            opaque = self._mesh(indices[opaque_tris])
             g.opaque = wp.uint64(opaque.id if opaque is not None else 0)
-            g.special = wp.uint64(special_mesh.id)
-            opaque_wide = self._wide(opaque, int((~special).sum()))
-            special_wide = self._wide(special_mesh, self.special_count)
-            faces = np.flatnonzero(special).astype(np.int32)
+            opaque_wide = self._wide(opaque, self.opaque_count)
+        special_mesh = self._mesh(indices[special])
+        g.special = wp.uint64(special_mesh.id if special_mesh is not None else 0)
+        special_wide = self._wide(special_mesh, self.special_count)
+        faces = np.flatnonzero(special).astype(np.int32) if self.special_count else np.zeros(1, dtype=np.int32)
         # the scene's own copy is refitted by its update, with its mesh
         self._wides = [w for w in (opaque_wide, special_wide) if w.node_count and w is not scene_wide]
         self.special_faces = wp.array(faces, dtype=wp.int32, device=dev)

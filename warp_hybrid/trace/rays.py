@@ -61,13 +61,6 @@ def max3(c: wp.vec3) -> float:
 
 
 @wp.func
-def is_emissive(scene: SceneGPU, face: int) -> bool:
-    """The material of ``face`` emits light (constant colour or texture)."""
-    m = scene.materials[scene.triangle_material[face]]
-    return m.emissive_tex >= 0 or max3(m.emissive) > 0.0
-
-
-@wp.func
 def triangle_position(scene: SceneGPU, face: int, u: float, v: float) -> wp.vec3:
     """World point at barycentrics (u, v) of ``face`` (Warp's convention)."""
     k = 3 * face

@@ -4,9 +4,9 @@ factories and the primary shadow kernel).
 Hard shadows from the light's centre (``shadow_samples`` = 1) or N samples over the
 light's sphere/rect/disk/cone (soft: the average over the samples that leave on the
 lit side; ``lighting/light_sampling.py``).  Shadow rays pass through emissive surfaces
-(the emitter geometry of area lights) and cut-out holes.  Each is an any-hit query
-against the opaque triangles, then, if unblocked, an ordered walk through the
-transmissive/cut-out/emissive ones (``occluders.py``).  At each crossing of a
+(the emitter geometry of area lights: in neither shadow BVH) and cut-out holes.  Each
+is an any-hit query against the opaque triangles, then, if unblocked, an ordered walk
+through the transmissive and cut-out ones (``occluders.py``).  At each crossing of a
 transmissive surface the transmittance is multiplied by ``(1 - opacity) (1 - F)`` with
 F the exact dielectric Fresnel reflectance for the material's IOR at the crossing
 angle (air-to-glass at every crossing: by reciprocity this is the reflectance a
@@ -40,7 +40,7 @@ from ..scene.device.wide_bvh import wide_any_hit, wide_closest
 from .occluders import OccluderGPU
 from .offset import hit_bound, offset_ray_origin
 from .optics import transmission_tint
-from .rays import MAX_LAYERS, TraceFrame, TraceParams, is_emissive, max3, step_past
+from .rays import MAX_LAYERS, TraceFrame, TraceParams, max3, step_past
 
 
 @wp.struct
@@ -94,19 +94,18 @@ def _make_transmittance_func(layered: bool, cutouts: bool, wide: bool):
                 return t
             face = occ.special_faces[q.face]
             m = scene.materials[scene.triangle_material[face]]
-            if not is_emissive(scene, face):
-                passes = False
-                if wp.static(cutouts):
-                    if (m.flags & FLAG_CUTOUT) != 0:
-                        if not is_cut_away(scene, face, q.u, q.v):
-                            return zero
-                        passes = True
-                if not passes:
-                    if (m.flags & (FLAG_TRANSMISSIVE | FLAG_BLENDED)) == 0:
+            passes = False
+            if wp.static(cutouts):
+                if (m.flags & FLAG_CUTOUT) != 0:
+                    if not is_cut_away(scene, face, q.u, q.v):
                         return zero
-                    t = wp.cw_mul(t, crossing_transmittance(scene, face, q.u, q.v, d))
-                    if max3(t) <= 0.0:
-                        return zero
+                    passes = True
+            if not passes:
+                if (m.flags & (FLAG_TRANSMISSIVE | FLAG_BLENDED)) == 0:
+                    return zero
+                t = wp.cw_mul(t, crossing_transmittance(scene, face, q.u, q.v, d))
+                if max3(t) <= 0.0:
+                    return zero
             origin = step_past(scene, face, q.u, q.v, q.normal, d)
             remaining = max_t - wp.dot(origin - o, d)
             if remaining <= 0.0:

@@ -8,7 +8,7 @@ kernels test with ``wp.static`` is a property derived here, so no rule is stated
 variant, each in its own Warp module (``module="unique"``): no reflection rays without
 reflective materials, no transmission or refraction code without transmissive or
 refractive ones, no dome lookups without a dome, no ordered shadow walk (only the
-any-hit query) when every surface is opaque and none emits.
+any-hit query) when every surface is opaque (emitters cast no shadow: ``occluders.py``).
 """
 
 from __future__ import annotations
@@ -79,8 +79,9 @@ class TraceVariant:
 
     @property
     def layered_shadows(self) -> bool:
-        """Shadow rays walk the surfaces that let light through, in order."""
-        return self.transparency or self.blending or self.features.cutouts or self.features.emission
+        """Shadow rays walk the surfaces that let light through, in order (emitters are
+        not among them: they cast no shadow)."""
+        return self.transparency or self.blending or self.features.cutouts
 
     def covers(self, features: SceneFeatures) -> bool:
         """Whether this variant can render a scene with ``features``."""

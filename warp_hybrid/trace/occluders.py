@@ -14,8 +14,8 @@ so they are in neither BVH.  So the tracer keeps
   (materials, textures, normals).
 
 When every triangle is opaque and none emits, the scene's own BVH serves as
-``opaque`` and nothing is built.  Both meshes share the ``DeviceScene``'s points array, so after an animated
-update they are refitted, not rebuilt.
+``opaque`` and nothing is built.  Both meshes share the ``DeviceScene``'s points
+array, so after an animated update they are refitted, not rebuilt.
 
 With ``wide`` (the CPU's default, ``TraceSettings.wide_bvh``) each of the two also has
 its 4-wide copy (``scene/device/wide_bvh.WideBVH``: the same tree and answers, 2-3x

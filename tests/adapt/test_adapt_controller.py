@@ -23,12 +23,13 @@ CHEAP, GLASS, MIXED = (0.25, 0.5), (0.75, 0.5), (0.6, 0.5)
 
 
 def make(
-    jitter: float = 0.0, spikes=(), seed: int = 0, initial_fraction=None, **settings
+    jitter: float = 0.0, spikes=(), seed: int = 0, initial_fraction=None, trace_fixed_ms: float = 0.0, **settings
 ) -> tuple[BudgetController, SyntheticCost]:
     """A 640x480 controller at 30 fps and the glass-disc scene (background ~8x cheaper than the glass)."""
     settings = ControllerSettings(budget_ms=settings.pop("budget_ms", BUDGET), **settings)
     controller = BudgetController(settings, 640, 480, initial_fraction=initial_fraction)
-    return controller, SyntheticCost.glass_disc(jitter=jitter, spikes=spikes, seed=seed)
+    cost = SyntheticCost.glass_disc(jitter=jitter, spikes=spikes, seed=seed, trace_fixed_ms=trace_fixed_ms)
+    return controller, cost
 
 
 def oracle(cost: SyntheticCost, controller: BudgetController, gaze) -> float:
@@ -104,6 +105,45 @@ def test_a_one_frame_spike_is_rolled_back() -> None:
     assert frames[30][1].frame_ms > BUDGET and max(m.frame_ms for _, m in frames[31:]) <= BUDGET
     assert fractions[31] < 0.5 * fractions[30]  # the frame after the spike is cut...
     assert fractions[32] == fractions[29]  # ...and the next goes back to the window from before it
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_a_one_frame_stall_the_guard_cut_short_is_rolled_back(seed) -> None:
+    # The machine stalls for two budgets in the middle of tracing and the guard stops the
+    # window at an eighth: the frame looks ~100x dearer per traced pixel, mostly as a fixed
+    # cost.  The frame after it traces a small window, where the fixed costs the model leaves
+    # out weigh most; it still fits the model from before far better than the re-levelled one.
+    spikes = [Spike(30, 31, stall_ms=2.0 * BUDGET, traced_share=0.125)]
+    controller, cost = make(jitter=0.05, seed=seed, spikes=spikes, trace_fixed_ms=1.5)
+    frames = run_loop(controller, cost, [MIXED] * 40)
+    fractions = [plan.fraction for plan, _ in frames]
+    assert frames[30][1].trace_ms > 2.0 * BUDGET and max(m.frame_ms for _, m in frames[31:]) <= BUDGET
+    assert fractions[31] < 0.5 * fractions[30]
+    assert fractions[32] == fractions[29]
+    assert min(m.frame_ms for _, m in frames[32:]) >= 0.8 * BUDGET
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_back_to_the_window_after_a_two_frame_stall(seed) -> None:
+    # Two frames stall in a row: no roll-back (the second is no better under the old model),
+    # the panic re-levels the model to the stall; the cheap frames after it re-level it down.
+    spikes = [Spike(30, 32, stall_ms=2.0 * BUDGET, traced_share=0.125)]
+    controller, cost = make(jitter=0.05, seed=seed, spikes=spikes, trace_fixed_ms=1.5)
+    frames = run_loop(controller, cost, [MIXED] * 70)
+    fractions = np.array([plan.fraction for plan, _ in frames])
+    assert max(m.frame_ms for _, m in frames[32:]) <= BUDGET
+    assert np.all((fractions[45:] >= 0.8 * fractions[29]) & (fractions[45:] <= 1.1 * fractions[29]))
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_the_window_follows_a_lasting_fall_in_cost(seed) -> None:
+    # Tracing turns twice as cheap: the model follows within a few frames, without overshoot.
+    controller, cost = make(jitter=0.02, seed=seed, spikes=[Spike(30, trace_scale=0.5)], trace_fixed_ms=1.5)
+    frames = run_loop(controller, cost, [MIXED] * 70)
+    fractions = np.array([plan.fraction for plan, _ in frames])
+    assert max(m.frame_ms for _, m in frames) <= BUDGET
+    assert fractions[45] >= 3.0 * fractions[29] and np.all(fractions[45:] >= 0.95 * fractions[45:].max())
+    assert min(m.frame_ms for _, m in frames[45:]) >= 0.8 * BUDGET
 
 
 def test_panic_after_two_frames_over_budget() -> None:

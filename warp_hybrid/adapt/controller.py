@@ -50,15 +50,20 @@ Control, after Unreal Engine's dynamic-resolution heuristic (DynamicResolution.c
   rejection (off by default) becomes the re-level and roll-back below.
 
 Surprises.  A frame whose trace time (or before / after time) exceeds what the model
-predicted for the pixels and rays it actually traced by more than ``surprise`` is
-learnt and then re-levels the model at once: if the fit still predicts less than the
-frame measured, every past trace measurement is scaled by measured over predicted (the
-model keeps where cost lies and jumps to the new level); the non-trace history restarts
-at the frame.  If the next frame fits the model from before the surprise again (and
-better than the re-levelled one), the surprise was a one-frame spike: the model and the
-window go back to where they were.  With the panic as the backstop, a frame is back
-within the budget by the second frame after a sudden, lasting cost spike (in the tests,
-by the first).
+predicted for the pixels and rays it actually traced by more than ``surprise``
+re-levels the model at once: every past trace measurement is scaled by measured over
+predicted (the model keeps where cost lies and jumps to the new level); the frame's
+totals do not enter the fit (its rays per tile do), since a frame that stalled while
+the guard cut its window short would read there as a large fixed cost, a wrong shape
+that scaling alone cannot undo.  The non-trace history restarts at the frame.  If the
+next frame fits the model from before the surprise better, as a ratio, than the
+re-levelled one (and surprises no other stage), the surprise was a one-frame spike: the
+model and the window go back to where they were.  With the panic as the backstop, a
+frame is back within the budget by the second frame after a sudden, lasting cost spike
+(in the tests, by the first).  The other way, ``panic_frames`` frames in a row whose
+trace time is below the prediction by more than ``surprise`` re-level the model down to
+the last of them: the model follows a lasting fall in cost within a few frames, and
+leaves behind the level that a stall too long to roll back has set.
 
 Deterministic: the controller reads no clock; everything it knows comes through
 ``FrameCost``.  Where the stages before and after tracing alone miss the budget, the
@@ -169,6 +174,13 @@ def largest_fitting(
     return lo if fit is None else fit[0]
 
 
+def _nearer_first(measured: float, first: float, second: float) -> bool:
+    """Whether ``measured`` is nearer ``first`` than ``second`` as a ratio (on ``first``'s
+    side of their geometric mean; ties go to ``first``)."""
+    mid = math.sqrt(max(first, 0.0) * max(second, 0.0))
+    return measured <= mid if first <= second else measured >= mid
+
+
 def _real(value: object) -> bool:
     """A real number (not a bool)."""
     return isinstance(value, numbers.Real) and not isinstance(value, bool)
@@ -229,6 +241,7 @@ class BudgetController:
         self._snapshot: _Snapshot | None = None
         self._last: FrameCost | None = None
         self._over_budget = 0
+        self._over_predicted = 0
         self._panic = False
 
     def reset(self) -> None:
@@ -239,6 +252,7 @@ class BudgetController:
         self._after = StageHistory(s.history_size, s.history_weight)
         self._fraction = min(max(self._initial, s.min_window), s.max_window)
         self._over_budget = 0
+        self._over_predicted = 0
         self._panic = False
         self._observed = 0
         self._last = None
@@ -380,7 +394,8 @@ class BudgetController:
         pixels = float(np.sum(cost.tile_pixels))
         rays = np.asarray(cost.tile_rays, dtype=np.float64).reshape(-1, len(RAY_TYPES)).sum(axis=0)
         grow = 1.0 + s.surprise
-        trace_up = before_up = after_up = False
+        trace_up = before_up = after_up = trace_down = False
+        predicted = 0.0
         snapshot, self._snapshot = self._snapshot, None
         if snapshot is not None and self._back_to(snapshot, cost, pixels, rays):
             # The last frame was a one-frame spike: forget it and go back to the window before it.
@@ -388,7 +403,9 @@ class BudgetController:
             self._before, self._after = snapshot.before, snapshot.after
             self._fraction = snapshot.fraction
         elif self._model.fitted:
-            trace_up = cost.trace_ms > grow * self._model.predict_totals(pixels, rays)
+            predicted = self._model.predict_totals(pixels, rays)
+            trace_up = cost.trace_ms > grow * predicted
+            trace_down = grow * cost.trace_ms < predicted
             before_up = cost.before_trace_ms > grow * self._before.mean()
             after_up = cost.after_trace_ms > grow * self._after.mean()
             if trace_up or before_up or after_up:
@@ -399,9 +416,17 @@ class BudgetController:
                     self._fraction,
                     (trace_up, before_up, after_up),
                 )
-        self._model.learn(cost)
+        # A surprising trace time re-levels the model (below) instead of entering the fit, where
+        # the model has a level to scale: a stall in a frame the guard cut short would
+        # otherwise read as a fixed cost there.
+        self._model.learn(cost, fit=not (trace_up and predicted > 0.0))
+        self._over_predicted = self._over_predicted + 1 if trace_down else 0
         if trace_up:
             self._relevel(cost, pixels, rays)
+        elif self._over_predicted >= s.panic_frames:
+            # A lasting fall in cost (or a re-level a stall left behind): down to this frame.
+            self._over_predicted = 0
+            self._relevel(cost, pixels, rays, down=True)
         (self._before.restart if before_up else self._before.add)(cost.before_trace_ms)
         (self._after.restart if after_up else self._after.add)(cost.after_trace_ms)
         self._over_budget = self._over_budget + 1 if cost.frame_ms > s.budget_ms else 0
@@ -415,16 +440,21 @@ class BudgetController:
             self._snapshot = None
         self._last = cost
 
-    def _relevel(self, cost: FrameCost, pixels: float, rays: np.ndarray) -> None:
+    def _relevel(self, cost: FrameCost, pixels: float, rays: np.ndarray, down: bool = False) -> None:
         """Re-level the trace model so that it predicts this frame: what the frame's pixels and
-        rays do not explain is a change of level."""
+        rays do not explain is a change of level (up where the fit still predicts less than
+        the frame measured; with ``down``, down where it still predicts more)."""
         predicted = self._model.predict_totals(pixels, rays)
-        if 0.0 < predicted < cost.trace_ms:
+        if predicted > 0.0 and (cost.trace_ms < predicted if down else cost.trace_ms > predicted):
             self._model.relevel(cost.trace_ms / predicted)
 
     def _back_to(self, snapshot: _Snapshot, cost: FrameCost, pixels: float, rays: np.ndarray) -> bool:
-        """Whether a frame after a surprise fits the model from before it again, and better than
-        the re-levelled one (the surprise was a one-frame spike)."""
+        """Whether a frame after a surprise fits the model from before it better than the
+        re-levelled one, as a ratio, in every stage the surprise moved, and raises no new
+        surprise in the others (the surprise was a one-frame spike).  A ratio, not a margin
+        around the old prediction: after a stall the window is small, and there the fixed
+        costs the model does not separate (launches, the pixel lists) can make the old
+        prediction half the measurement while the re-levelled one is fifty times it."""
         grow = 1.0 + self.settings.surprise
         pairs = (
             (
@@ -436,7 +466,7 @@ class BudgetController:
             (cost.after_trace_ms, snapshot.after.mean(), self._after.mean()),
         )
         for (measured, old, new), surprised in zip(pairs, snapshot.surprised):
-            if measured > grow * old or (surprised and abs(measured - old) > abs(measured - new)):
+            if not (_nearer_first(measured, old, new) if surprised else measured <= grow * old):
                 return False
         return True
 

@@ -175,11 +175,24 @@ class TraceCostModel:
         self.costs = solve_costs(self.fit, self.settings.cost_prior)
         self._pixel_cost = None
 
-    def learn(self, cost: FrameCost) -> None:
-        """Add one frame's measurements: its totals to the fit, its rays per pixel to the tiles."""
+    def learn(self, cost: FrameCost, fit: bool = True) -> None:
+        """Add one frame's measurements: its totals to the fit (unless not ``fit``: a frame
+        that tells a change of level, not where the cost lies), its rays per pixel to the
+        tiles."""
         pixels = np.asarray(cost.tile_pixels, dtype=np.float64)
         rays = np.asarray(cost.tile_rays, dtype=np.float64)
-        x = regressors(pixels.sum(), rays.reshape(-1, len(RAY_TYPES)).sum(axis=0))
+        if fit:
+            self._fit_totals(pixels.sum(), rays.reshape(-1, len(RAY_TYPES)).sum(axis=0), float(cost.trace_ms))
+        # A tile traced in full forgets tile_forgetting of its past; one traced in part, less.
+        keep = self.settings.tile_forgetting ** (pixels / self.grid.tile_area)
+        self._tile_px = self._tile_px * keep + pixels
+        self._tile_rays = self._tile_rays * keep[..., None] + rays
+        self._tile_seen += pixels
+        self._pixel_cost = None
+
+    def _fit_totals(self, pixels: float, rays: np.ndarray, trace_ms: float) -> None:
+        """Add a frame's totals to the fit and solve it again."""
+        x = regressors(pixels, rays)
         # Directional forgetting (Kulhavy): forget (1 - lam) of the information along the
         # direction this frame measures again, keep the rest; the estimate is unchanged.
         a, b = self.fit.a, self.fit.b
@@ -190,17 +203,11 @@ class TraceCostModel:
             a = a - alpha * np.outer(u, u)
             b = b - alpha * u * float(x @ b)
         self.fit.a = 0.5 * (a + a.T) + np.outer(x, x)
-        self.fit.b = b + x * float(cost.trace_ms)
+        self.fit.b = b + x * trace_ms
         lam = self.settings.cost_forgetting
         self.fit.frame_info = x * x if self.fit.frames == 0 else lam * self.fit.frame_info + (1.0 - lam) * x * x
         self.fit.frames += 1
         self.costs = solve_costs(self.fit, self.settings.cost_prior)
-        # A tile traced in full forgets tile_forgetting of its past; one traced in part, less.
-        keep = self.settings.tile_forgetting ** (pixels / self.grid.tile_area)
-        self._tile_px = self._tile_px * keep + pixels
-        self._tile_rays = self._tile_rays * keep[..., None] + rays
-        self._tile_seen += pixels
-        self._pixel_cost = None
 
     def rays_per_pixel(self) -> np.ndarray:
         """(tiles_y, tiles_x, 3) estimated rays per traced pixel of each type, priors included."""

@@ -66,7 +66,8 @@ class ControllerSettings:
       ``r.DynamicRes.ChangePercentageThreshold`` = 2 %, for increases only).
     - ``surprise``: a frame whose measured trace (or non-trace) time exceeds the
       model's prediction for it by more than this share re-levels the model at once
-      instead of waiting for the forgetting factor.
+      instead of waiting for the forgetting factor; ``panic_frames`` frames in a row
+      whose trace time falls short of it by as much re-level it down.
     - ``skip_frames``: the first frames observed are not learnt from (e.g. one that
       compiles kernels).
 

@@ -28,13 +28,19 @@ from .tiles import TileGrid, prefix_sums
 @dataclass(frozen=True)
 class Spike:
     """Costs scaled over the frames ``[start, stop)`` (``stop=None``: from ``start`` on);
-    frames count ``SyntheticCost.frame`` calls from 0."""
+    frames count ``SyntheticCost.frame`` calls from 0.
+
+    ``stall_ms`` adds a fixed delay to the trace and ``traced_share`` keeps that share of
+    the window's pixels and rays: a machine that stalls while tracing, and the budget
+    guard that stops the window short at the deadline."""
 
     start: int
     stop: int | None = None
     trace_scale: float = 1.0
     before_scale: float = 1.0
     after_scale: float = 1.0
+    stall_ms: float = 0.0
+    traced_share: float = 1.0
 
     def active(self, frame: int) -> bool:
         """Whether the spike covers this frame."""
@@ -46,7 +52,9 @@ class SyntheticCost:
 
     ``pixel_ms``: (H, W) trace ms per traced pixel.  ``rays``: (H, W, 3) shadow,
     reflection and refraction rays per traced pixel.  ``before_ms``, ``after_ms``: the
-    stages before and after tracing.  ``spikes``: frame ranges with scaled costs.
+    stages before and after tracing.  ``trace_fixed_ms``: what a frame that traces any
+    pixel pays besides its pixels (kernel launches, the pixel lists; the renderer's is
+    about a millisecond or two).  ``spikes``: frame ranges with scaled costs.
     ``jitter``: relative standard deviation of seeded Gaussian noise on each stage time.
     ``tile_px``, ``shape``, ``feather_px`` must match the controller's.
     """
@@ -61,6 +69,7 @@ class SyntheticCost:
         tile_px: int = 32,
         shape: str = "circle",
         feather_px: float = 16.0,
+        trace_fixed_ms: float = 0.0,
         spikes: Sequence[Spike] = (),
         jitter: float = 0.0,
         seed: int = 0,
@@ -72,6 +81,7 @@ class SyntheticCost:
         self.height, self.width = pixel_ms.shape
         self.pixel_ms, self.rays = pixel_ms, rays
         self.before_ms, self.after_ms = float(before_ms), float(after_ms)
+        self.trace_fixed_ms = float(trace_fixed_ms)
         self.shape, self.feather_px = shape, float(feather_px)
         self.spikes = tuple(spikes)
         self.jitter = float(jitter)
@@ -110,7 +120,12 @@ class SyntheticCost:
     def trace_ms(self, gaze: tuple[float, float], fraction: float) -> float:
         """The noiseless, unspiked trace ms of a window."""
         start, stop = self.grid.spans(gaze, fraction, self.shape, self.feather_px)
-        return float(self.grid.sums(start, stop, self._cost_prefix).sum())
+        return self._trace_total(start, stop)
+
+    def _trace_total(self, start: np.ndarray, stop: np.ndarray) -> float:
+        """The covered pixels' costs summed, plus the fixed cost where any is covered."""
+        fixed = self.trace_fixed_ms if np.any(stop > start) else 0.0
+        return float(self.grid.sums(start, stop, self._cost_prefix).sum()) + fixed
 
     def best_fraction(self, gaze: tuple[float, float], target_ms: float, lo: float = 0.0, hi: float = 1.0) -> float:
         """The largest window in [lo, hi] whose noiseless, unspiked frame fits ``target_ms``."""
@@ -123,14 +138,21 @@ class SyntheticCost:
         start, stop = self.grid.spans(gaze, fraction, self.shape, self.feather_px)
         tile_pixels = self.grid.counts(start, stop)
         tile_rays = np.rint(self.grid.sums(start, stop, self._ray_prefix)).astype(np.int64)
-        trace = float(self.grid.sums(start, stop, self._cost_prefix).sum())
+        trace = self._trace_total(start, stop)
         scale = np.ones(3)
+        stall_ms = 0.0
         for spike in self.spikes:
             if spike.active(self.frame_index):
                 scale *= (spike.trace_scale, spike.before_scale, spike.after_scale)
+                stall_ms += spike.stall_ms
+                if spike.traced_share < 1.0:
+                    tile_pixels = np.rint(tile_pixels * spike.traced_share).astype(np.int64)
+                    tile_rays = np.rint(tile_rays * spike.traced_share).astype(np.int64)
+                    trace *= spike.traced_share
         if self.jitter > 0.0:
             scale *= np.maximum(1.0 + self.jitter * self._rng.standard_normal(3), 0.0)
         trace_ms, before_ms, after_ms = scale * (trace, self.before_ms, self.after_ms)
+        trace_ms += stall_ms
         self.frame_index += 1
         return FrameCost(
             frame_ms=float(before_ms + trace_ms + after_ms),

@@ -87,9 +87,10 @@ class HitRecordTarget:
 
 
 def caster_scene(scene: DeviceScene, previous: DeviceScene | None = None) -> DeviceScene:
-    """``scene`` as the maps are drawn: its emissive and transmissive triangles hidden
+    """``scene`` as the maps are drawn: the triangles that cast no shadow (emitters,
+    ``Material.casts_shadow``) and the transmissive ones hidden
     (``scene.device.subset.hide_materials``)."""
-    return hide_materials(scene, lambda m: m.is_emissive or m.is_transmissive, previous)
+    return hide_materials(scene, lambda m: not m.casts_shadow or m.is_transmissive, previous)
 
 
 def light_geometry(light: Light) -> tuple[float, ...]:

@@ -165,6 +165,12 @@ class Material:
         """Emits light (a constant colour or a texture)."""
         return max(self.emissive) > 0.0 or self.emissive_texture >= 0
 
+    @property
+    def casts_shadow(self) -> bool:
+        """Shadow rays and shadow maps see its surfaces at all: every material but an
+        emitter's (emitters cast no shadow)."""
+        return not self.is_emissive
+
     def texture_slots(self) -> tuple[int, ...]:
         """Every texture slot (an index into ``Scene.textures`` or -1)."""
         return (

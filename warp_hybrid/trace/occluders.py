@@ -50,12 +50,6 @@ class OccluderGPU:
     scene_wide: WideBVHGPU
 
 
-def casts_shadow(m: Material) -> bool:
-    """Shadow rays see this material's surfaces at all: every material but an emitter's
-    (emitters do not cast shadows)."""
-    return not m.is_emissive
-
-
 def lets_light_through(m: Material) -> bool:
     """Shadow rays must look at this material's surfaces one by one (it is transmissive
     or alpha-tested)."""
@@ -74,7 +68,7 @@ class Occluders:
         self._materials_version = scene.materials_version
         mats = scene.scene.materials
         tri_mat = np.asarray(scene.scene.triangle_material, dtype=np.int64)
-        casting = np.array([casts_shadow(m) for m in mats] or [True], dtype=bool)[tri_mat]
+        casting = np.array([m.casts_shadow for m in mats] or [True], dtype=bool)[tri_mat]
         special = casting & np.array([lets_light_through(m) for m in mats] or [False], dtype=bool)[tri_mat]
         opaque_tris = casting & ~special
         self.special_count = int(special.sum())

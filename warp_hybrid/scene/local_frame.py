@@ -105,7 +105,9 @@ def frame_problem(
             return problem, cameras[0].name
     limit = MAX_LOCAL_COORDINATE
     what = f"beyond the representable range (|coordinate| <= 2^30 = {limit:.3g} around the camera)"
-    if len(points):
+    # Two plain reductions first (an animated scene runs this every frame): only a scene
+    # that may be beyond the range (or holds a NaN, which they do not order) looks point by point.
+    if len(points) and not (float(points.max()) <= limit and float(points.min()) >= -limit):
         big = np.abs(points).max(axis=1) > limit
         if big.any():
             i = int(np.flatnonzero(big)[0])

@@ -122,10 +122,10 @@ class SyntheticCost:
         start, stop = self.grid.spans(gaze, fraction, self.shape, self.feather_px)
         return self._trace_total(start, stop)
 
-    def _trace_total(self, start: np.ndarray, stop: np.ndarray) -> float:
-        """The covered pixels' costs summed, plus the fixed cost where any is covered."""
+    def _trace_total(self, start: np.ndarray, stop: np.ndarray, share: float = 1.0) -> float:
+        """``share`` of the covered pixels' costs summed, plus the fixed cost where any is covered."""
         fixed = self.trace_fixed_ms if np.any(stop > start) else 0.0
-        return float(self.grid.sums(start, stop, self._cost_prefix).sum()) + fixed
+        return float(self.grid.sums(start, stop, self._cost_prefix).sum()) * share + fixed
 
     def best_fraction(self, gaze: tuple[float, float], target_ms: float, lo: float = 0.0, hi: float = 1.0) -> float:
         """The largest window in [lo, hi] whose noiseless, unspiked frame fits ``target_ms``."""
@@ -138,17 +138,17 @@ class SyntheticCost:
         start, stop = self.grid.spans(gaze, fraction, self.shape, self.feather_px)
         tile_pixels = self.grid.counts(start, stop)
         tile_rays = np.rint(self.grid.sums(start, stop, self._ray_prefix)).astype(np.int64)
-        trace = self._trace_total(start, stop)
         scale = np.ones(3)
-        stall_ms = 0.0
+        stall_ms, share = 0.0, 1.0
         for spike in self.spikes:
             if spike.active(self.frame_index):
                 scale *= (spike.trace_scale, spike.before_scale, spike.after_scale)
                 stall_ms += spike.stall_ms
-                if spike.traced_share < 1.0:
-                    tile_pixels = np.rint(tile_pixels * spike.traced_share).astype(np.int64)
-                    tile_rays = np.rint(tile_rays * spike.traced_share).astype(np.int64)
-                    trace *= spike.traced_share
+                share *= spike.traced_share
+        if share < 1.0:  # the guard stopped the window short: its fixed cost is paid whole
+            tile_pixels = np.rint(tile_pixels * share).astype(np.int64)
+            tile_rays = np.rint(tile_rays * share).astype(np.int64)
+        trace = self._trace_total(start, stop, share)
         if self.jitter > 0.0:
             scale *= np.maximum(1.0 + self.jitter * self._rng.standard_normal(3), 0.0)
         trace_ms, before_ms, after_ms = scale * (trace, self.before_ms, self.after_ms)

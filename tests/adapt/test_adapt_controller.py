@@ -146,6 +146,16 @@ def test_the_window_follows_a_lasting_fall_in_cost(seed) -> None:
     assert min(m.frame_ms for _, m in frames[45:]) >= 0.8 * BUDGET
 
 
+def test_frames_the_guard_stopped_before_any_pixel_teach_no_fall_in_cost() -> None:
+    # Three frames trace nothing (a stall before tracing: the guard's deadline has passed):
+    # they cost no trace time, but that is no evidence that pixels got cheaper.
+    controller, cost = make(jitter=0.02, spikes=[Spike(30, 33, traced_share=0.0)])
+    frames = run_loop(controller, cost, [MIXED] * 45)
+    fractions = [plan.fraction for plan, _ in frames]
+    assert all(measured.traced_pixels == 0 for _, measured in frames[30:33])
+    assert max(fractions[30:]) <= 1.05 * fractions[29] and max(m.frame_ms for _, m in frames) <= BUDGET
+
+
 def test_panic_after_two_frames_over_budget() -> None:
     # With the surprise re-level off, only Unreal's panic reacts to a sudden spike.
     controller, cost = make(jitter=0.0, spikes=[Spike(30, trace_scale=3.0)], surprise=1e9)

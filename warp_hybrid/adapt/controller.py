@@ -63,7 +63,9 @@ frame is back within the budget by the second frame after a sudden, lasting cost
 (in the tests, by the first).  The other way, ``panic_frames`` frames in a row whose
 trace time is below the prediction by more than ``surprise`` re-level the model down to
 the last of them: the model follows a lasting fall in cost within a few frames, and
-leaves behind the level that a stall too long to roll back has set.
+leaves behind the level that a stall too long to roll back has set.  Only frames that
+traced pixels count: one the guard stopped before its first pixel says nothing about
+their cost.
 
 Deterministic: the controller reads no clock; everything it knows comes through
 ``FrameCost``.  Where the stages before and after tracing alone miss the budget, the
@@ -405,7 +407,8 @@ class BudgetController:
         elif self._model.fitted:
             predicted = self._model.predict_totals(pixels, rays)
             trace_up = cost.trace_ms > grow * predicted
-            trace_down = grow * cost.trace_ms < predicted
+            # only a frame that traced something can tell the trace is cheaper than predicted
+            trace_down = pixels > 0.0 and grow * cost.trace_ms < predicted
             before_up = cost.before_trace_ms > grow * self._before.mean()
             after_up = cost.after_trace_ms > grow * self._after.mean()
             if trace_up or before_up or after_up:
@@ -445,7 +448,7 @@ class BudgetController:
         rays do not explain is a change of level (up where the fit still predicts less than
         the frame measured; with ``down``, down where it still predicts more)."""
         predicted = self._model.predict_totals(pixels, rays)
-        if predicted > 0.0 and (cost.trace_ms < predicted if down else cost.trace_ms > predicted):
+        if predicted > 0.0 and (0.0 < cost.trace_ms < predicted if down else cost.trace_ms > predicted):
             self._model.relevel(cost.trace_ms / predicted)
 
     def _back_to(self, snapshot: _Snapshot, cost: FrameCost, pixels: float, rays: np.ndarray) -> bool:

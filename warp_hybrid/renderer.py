@@ -33,11 +33,11 @@ import warp as wp
 from .compose import Compositor
 from .compose.reuse import TemporalReuse
 from .compose.upsample import RingUpsampler
-from .core.camera import make_camera_gpu
+from .core.camera import box_rows, make_camera_gpu
 from .core.features import analyse_features
 from .core.gbuffer import GBuffer
 from .core.passes import FrameBuffers, FrameContext, RenderPass
-from .core.rows import NO_ROWS
+from .core.rows import NO_ROWS, RowSpan
 from .errors import ArgumentTypeError, RenderSettingsError
 from .field_types import check_field_types
 from .focus import SHAPES, FocusRegionBuilder, FocusWindow
@@ -106,9 +106,13 @@ class RenderSettings:
     ``cache_raster``: keep the raster layer (the G-buffer, its deferred lighting and the
     layer behind blended surfaces) of the last frame when neither the camera nor the
     scene changed since (a gaze replay over a still view), and draw only what depends on
-    the window (tracing, compose, post); the image is the same bit for bit.  Off by
-    default (every frame pays its whole cost, as benchmarks of one frame's cost need);
-    the replay and viewer commands turn it on.
+    the window (tracing, compose, post); the image is the same bit for bit.  Where the
+    scene update before the frame moved geometry alone (``DeviceScene.moved``) within a
+    box in front of the camera, only the rows that box projects to are drawn again (the
+    stats' ``raster_rows``), without shadow maps, the probe or alpha-blended surfaces,
+    whose pixels depend on more than their own surface.  Off by default (every frame pays
+    its whole cost, as benchmarks of one frame's cost need); the replay and viewer
+    commands turn it on.
     ``wide_bvh``: the tracer and the ray-cast primaries query 4-wide copies of the BVHs
     (``scene.device.wide_bvh``: the same answers, 2-3x faster on the CPU); None
     (default): on the CPU, not on CUDA, where it is refused; False keeps Warp's own
@@ -499,6 +503,7 @@ class Renderer:
         key = self._still_view_key(frame, spp)
         cached = key is not None and key == self._still_view
         frame.raster_cached = cached
+        frame.raster_rows = None if cached else self._moved_rows(key, frame)
         frame.changed_rows = frame.changed_cols = NO_ROWS if cached else None
         self._still_view = None  # until this frame is whole
         if spp == 1:
@@ -537,6 +542,7 @@ class Renderer:
             "frame_ms": frame.timer.total_ms,
             "exposure_ev": self._post.last_exposure_ev,
             "raster_cached": cached,
+            "raster_rows": list(frame.raster_rows) if frame.raster_rows is not None else None,
         }
         if frame.region is not None and rays is not None:
             stats.update(self._trace_stats(frame, rays))
@@ -545,6 +551,21 @@ class Renderer:
             stats["guard"] = dataclasses.asdict(guard)
         out.stats = stats
         return out
+
+    def _moved_rows(self, key: tuple | None, frame: FrameContext) -> RowSpan | None:
+        """The only rows of the kept raster layer that the last scene update can have
+        changed, where the view stood still and that update moved geometry alone
+        (``DeviceScene.moved``) within a box wholly in front of the camera: the other rows
+        are kept as they are.  None (draw every row) otherwise, and wherever a pixel's
+        raster colour depends on more than its own surface (shadow maps, the reflection
+        probe, the layer behind alpha-blended surfaces)."""
+        last, ds, s = self._still_view, self.device_scene, self.settings
+        moved = ds.moved
+        if key is None or last is None or moved is None or s.shadow_maps or s.probes or ds.features.blending:
+            return None
+        if last[:1] + last[2:] != key[:1] + key[2:] or (last[1], key[1]) != (moved.since, moved.since + 1):
+            return None
+        return box_rows(frame.camera, moved.lo, moved.hi)
 
     def _still_view_key(self, frame: FrameContext, spp: int) -> tuple | None:
         """What the raster layer of ``frame`` depends on (``RenderSettings.cache_raster``):

@@ -92,6 +92,29 @@ def make_camera_gpu(
     return c
 
 
+#: Rows ``box_rows`` adds on either side of a box's projection (rounding of the corners,
+#: and the sample point anywhere in its pixel).
+BOX_ROW_MARGIN = 2
+
+
+def box_rows(cam: CameraGPU, lo: np.ndarray, hi: np.ndarray) -> tuple[int, int] | None:
+    """The image rows (first, stop) that the axis-aligned box ``lo``..``hi`` (the camera's
+    frame) can cover, ``BOX_ROW_MARGIN`` wider on either side and clipped to the image
+    (an empty span where it lies above or below it); None where the box reaches the near
+    plane (its projection is unbounded there)."""
+    corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+    d = corners - np.array([cam.origin[0], cam.origin[1], cam.origin[2]], dtype=np.float64)
+    depth = d @ np.array([cam.forward[0], cam.forward[1], cam.forward[2]], dtype=np.float64)
+    if not np.all(depth > float(cam.near)):
+        return None
+    up = d @ np.array([cam.up[0], cam.up[1], cam.up[2]], dtype=np.float64)
+    half = 0.5 * float(cam.height)
+    screen_y = half - up / depth * (half / float(cam.tan_y))
+    first = max(int(np.floor(screen_y.min())) - BOX_ROW_MARGIN, 0)
+    stop = min(int(np.ceil(screen_y.max())) + 1 + BOX_ROW_MARGIN, int(cam.height))
+    return (first, stop) if first < stop else (0, 0)
+
+
 @wp.func(inline=True)
 def camera_ray(cam: CameraGPU, px: float, py: float) -> wp.vec3:
     """Direction of the camera ray through image point (px, py) in pixels; not

@@ -68,7 +68,10 @@ class FrameContext:
     per-frame totals (the ray tally) start them at sample 0 only.  ``view`` is the scene
     camera ``camera`` was made from, for passes that sample other points in each pixel.
     ``raster_cached``: the raster layer (and the G-buffer) are the previous frame's, kept
-    for a still view (``RenderSettings.cache_raster``).  ``changed_rows`` and
+    for a still view (``RenderSettings.cache_raster``).  ``raster_rows``: the only rows of
+    the raster layer (and the G-buffer) the raster-layer passes draw, the rest being the
+    previous frame's (a still view where only a small part of the scene moved); None:
+    every row.  ``changed_rows`` and
     ``changed_cols``: the only rows and columns of ``buffers.color`` that can differ from
     the previous frame's (None: any): none where the raster layer was kept, then widened
     by each pass that writes ``color``."""
@@ -85,6 +88,7 @@ class FrameContext:
     sample_index: int = 0
     view: Camera | None = None
     raster_cached: bool = False
+    raster_rows: RowSpan | None = None
     changed_rows: RowSpan | None = None
     changed_cols: RowSpan | None = None
 

@@ -36,6 +36,7 @@ import warp as wp
 from ..core.camera import CameraGPU, pixel_ray
 from ..core.gbuffer import GBuffer, GBufferArrays
 from ..core.passes import FrameContext, RenderPass
+from ..core.rows import RowSpan
 from ..core.scene_gpu import FLAG_TRANSMISSIVE, AmbientGPU, SceneGPU
 from ..parallel import Launcher
 from ..scene.device import DeviceScene
@@ -161,11 +162,12 @@ class DeferredLighting(RenderPass):
         launcher.ensure_loaded(shade_kernel(shadow_maps is not None, probe is not None))
 
     def execute(self, frame: FrameContext) -> None:
-        """Shade ``frame``'s G-buffer into its raster layer (every pixel)."""
+        """Shade ``frame``'s G-buffer into its raster layer (every pixel of its ``raster_rows``)."""
         assert self.scene is not None, "set_scene first"
         maps = self.shadow_maps.gpu if self.shadow_maps is not None else None
         probe = self.probe.gpu if self.probe is not None else None
-        self.shade(self.scene, frame.camera, frame.gbuffer, frame.buffers.raster_color, frame.timer, maps, probe)
+        color = frame.buffers.raster_color
+        self.shade(self.scene, frame.camera, frame.gbuffer, color, frame.timer, maps, probe, frame.raster_rows)
 
     def shade(
         self,
@@ -176,10 +178,11 @@ class DeferredLighting(RenderPass):
         timer: StageTimer,
         maps: ShadowMapsGPU | None = None,
         probe: ProbeGPU | None = None,
+        rows: RowSpan | None = None,
     ) -> None:
-        """Write the linear radiance of every pixel, (H, W) vec3, into ``color_out``
-        (each light's direct term times its visibility in ``maps`` when given, the
-        glossy ambient from ``probe`` when given)."""
+        """Write the linear radiance of every pixel (of ``rows``, default every row), (H, W)
+        vec3, into ``color_out`` (each light's direct term times its visibility in ``maps``
+        when given, the glossy ambient from ``probe`` when given)."""
         h, w = gbuffer.height, gbuffer.width
         if tuple(color_out.shape) != (h, w) or (camera.width, camera.height) != (w, h):
             raise ValueError(
@@ -197,4 +200,4 @@ class DeferredLighting(RenderPass):
             color_out,
         ]
         with timer.stage("lighting"):
-            self.launcher.launch_pixels(kernel, h, w, inputs)
+            self.launcher.launch_pixels(kernel, h, w, inputs, rows=rows)

@@ -18,6 +18,7 @@ from abc import abstractmethod
 from ..core.camera import CameraGPU
 from ..core.gbuffer import GBuffer
 from ..core.passes import FrameContext, RenderPass
+from ..core.rows import RowSpan
 from ..parallel import Launcher
 from ..scene.device import DeviceScene
 from ..timing import StageTimer
@@ -33,23 +34,29 @@ class PrimaryVisibility(RenderPass):
         launcher.ensure_loaded(kernels.surface_kernel)  # the primary kernels' one module
 
     def execute(self, frame: FrameContext) -> None:
-        """Fill ``frame``'s G-buffer from the scene set with ``set_scene``."""
+        """Fill ``frame``'s G-buffer (its ``raster_rows``) from the scene set with ``set_scene``."""
         assert self.scene is not None, "set_scene first"
-        self.render(self.scene, frame.camera, frame.gbuffer, frame.timer)
+        self.render(self.scene, frame.camera, frame.gbuffer, frame.timer, frame.raster_rows)
 
-    def render(self, scene: DeviceScene, camera: CameraGPU, gbuffer: GBuffer, timer: StageTimer) -> None:
-        """Fill ``gbuffer`` with ``scene`` seen by ``camera`` (every pixel written)."""
+    def render(
+        self, scene: DeviceScene, camera: CameraGPU, gbuffer: GBuffer, timer: StageTimer, rows: RowSpan | None = None
+    ) -> None:
+        """Fill ``gbuffer`` with ``scene`` seen by ``camera`` (every pixel of ``rows``, default
+        every row, written; the other rows untouched)."""
         if (camera.width, camera.height) != (gbuffer.width, gbuffer.height):
             raise ValueError(
                 f"camera is for {camera.width}x{camera.height} but the G-buffer is {gbuffer.width}x{gbuffer.height}"
             )
-        self.find_hits(scene, camera, gbuffer, timer)
+        self.find_hits(scene, camera, gbuffer, timer, rows)
         with timer.stage("surface"):
             self.launcher.launch_pixels(
-                kernels.surface_kernel, gbuffer.height, gbuffer.width, [scene.gpu, camera, gbuffer.rows()]
+                kernels.surface_kernel, gbuffer.height, gbuffer.width, [scene.gpu, camera, gbuffer.rows()], rows=rows
             )
 
     @abstractmethod
-    def find_hits(self, scene: DeviceScene, camera: CameraGPU, gbuffer: GBuffer, timer: StageTimer) -> None:
-        """Write the hit record (triangle, depth, barycentrics) of every pixel: the
-        background's (``gbuffer.BACKGROUND``) where it sees no surface."""
+    def find_hits(
+        self, scene: DeviceScene, camera: CameraGPU, gbuffer: GBuffer, timer: StageTimer, rows: RowSpan | None = None
+    ) -> None:
+        """Write the hit record (triangle, depth, barycentrics) of every pixel of ``rows``
+        (default every row): the background's (``gbuffer.BACKGROUND``) where it sees no
+        surface."""

@@ -28,6 +28,7 @@ import warp as wp
 
 from ..core.camera import CameraGPU
 from ..core.gbuffer import GBuffer
+from ..core.rows import RowSpan
 from ..parallel import BandLaunch, Launcher, band, band_count
 from ..scene.device import DeviceScene
 from ..timing import StageTimer
@@ -84,20 +85,30 @@ class Rasterizer(PrimaryVisibility):
             self._bounds_of = (weakref.ref(scene), scene.geometry_version)
         return self._bounds
 
-    def _rasterize(self, scene: DeviceScene, camera: CameraGPU, keys: wp.array, mode: int, clear: int) -> None:
+    def _rasterize(
+        self,
+        scene: DeviceScene,
+        camera: CameraGPU,
+        keys: wp.array,
+        mode: int,
+        clear: int,
+        rows: RowSpan | None = None,
+    ) -> None:
         """Transform the points, then clear each thread's slice and run the coverage kernel
         into it: over bands of clusters (``Launcher.share``), or, for fewer than
         ``MIN_BAND_CLUSTERS`` clusters a thread (and on one thread), every cluster into
-        piece k's band of rows, piece k clearing and writing slice k (module docstring)."""
+        piece k's band of rows, piece k clearing and writing slice k (module docstring).
+        ``rows`` (first, stop): only those rows of the slices are cleared and covered."""
         launcher = self.launcher
         launcher.ensure_loaded(kernels.coverage_kernel)
         count = scene.scene.triangle_count
         pts = self._transform_points(scene, camera)
         threads, height = keys.shape[0], keys.shape[1]
+        top, bottom = (0, height) if rows is None else rows
         bounds = self._cluster_bounds(scene) if count > 0 else None
         clusters = bounds.shape[0] if bounds is not None else 0
 
-        def inputs(slot: int, rows: tuple[int, int] = (0, height)) -> list:
+        def inputs(slot: int, rows: tuple[int, int] = (top, bottom)) -> list:
             target = RasterTarget()
             target.keys = keys
             target.slot = slot
@@ -109,17 +120,17 @@ class Rasterizer(PrimaryVisibility):
 
             def clear_and_cover_rows(k: int, n: int) -> None:
                 # one piece, timed whole when profiling (the launch is not timed again)
-                keys[k].fill_(clear)
+                keys[k, top:bottom].fill_(clear)
                 if clusters > 0:
-                    first, size = band(k, n, height)
-                    rows = inputs(k, (first, first + size))
+                    first, size = band(k, n, bottom - top)
+                    rows = inputs(k, (top + first, top + first + size))
                     wp.launch(kernels.coverage_kernel, dim=clusters, inputs=[*rows, 0, 1], device=launcher.device)
 
             launcher.run(clear_and_cover_rows, threads)
             return
 
         def clear_slice(k: int, _n: int) -> None:
-            keys[k].fill_(clear)
+            keys[k, top:bottom].fill_(clear)
 
         launcher.run(clear_slice, threads)
         run = BandLaunch(launcher, kernels.coverage_kernel, inputs)
@@ -130,14 +141,23 @@ class Rasterizer(PrimaryVisibility):
 
         launcher.share(cover_band, band_count(clusters, threads, MIN_BAND_CLUSTERS))
 
-    def find_hits(self, scene: DeviceScene, camera: CameraGPU, gbuffer: GBuffer, timer: StageTimer) -> None:
-        """Rasterize ``scene`` seen by ``camera`` and resolve each pixel's hit record."""
+    def find_hits(
+        self, scene: DeviceScene, camera: CameraGPU, gbuffer: GBuffer, timer: StageTimer, rows: RowSpan | None = None
+    ) -> None:
+        """Rasterize ``scene`` seen by ``camera`` and resolve each pixel's hit record (in
+        ``rows``, default every row)."""
+        if rows is not None and rows[0] >= rows[1]:
+            return
         keys = self._slices(gbuffer.height, gbuffer.width)
         with timer.stage("raster"):
-            self._rasterize(scene, camera, keys, MODE_DEPTH, _EMPTY_KEY)
+            self._rasterize(scene, camera, keys, MODE_DEPTH, _EMPTY_KEY, rows)
         with timer.stage("resolve"):
             self.launcher.launch_pixels(
-                kernels.resolve_kernel, gbuffer.height, gbuffer.width, [scene.gpu, camera, keys, gbuffer.rows()]
+                kernels.resolve_kernel,
+                gbuffer.height,
+                gbuffer.width,
+                [scene.gpu, camera, keys, gbuffer.rows()],
+                rows=rows,
             )
 
     def overdraw(self, scene: DeviceScene, camera: CameraGPU) -> np.ndarray:

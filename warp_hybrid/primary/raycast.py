@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from ..core.camera import CameraGPU
 from ..core.gbuffer import GBuffer
+from ..core.rows import RowSpan
 from ..parallel import Launcher
 from ..scene.device import DeviceScene
 from ..scene.device.wide_bvh import use_wide_bvh
@@ -29,12 +30,15 @@ class RayCaster(PrimaryVisibility):
         #: Whether the rays query the scene's 4-wide BVH copy.
         self.wide_bvh = use_wide_bvh(wide_bvh, launcher.device)
 
-    def find_hits(self, scene: DeviceScene, camera: CameraGPU, gbuffer: GBuffer, timer: StageTimer) -> None:
-        """One ray per pixel centre of ``camera`` (stage "raycast")."""
+    def find_hits(
+        self, scene: DeviceScene, camera: CameraGPU, gbuffer: GBuffer, timer: StageTimer, rows: RowSpan | None = None
+    ) -> None:
+        """One ray per pixel centre of ``camera`` in ``rows`` (default every row; stage "raycast")."""
         with timer.stage("raycast"):
             self.launcher.launch_pixels(
                 kernels.raycast_kernel,
                 gbuffer.height,
                 gbuffer.width,
                 [scene.gpu, scene.query_bvh(self.wide_bvh).gpu, camera, gbuffer.rows()],
+                rows=rows,
             )

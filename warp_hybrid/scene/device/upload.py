@@ -10,7 +10,9 @@ re-analyses the features, and refuses clearly when the topology changed.
 so passes that keep derived data (the tracer's shadow meshes) know when to refit or
 rebuild theirs; ``content_version`` counts the updates that changed anything a frame
 draws (points, normals, colours, lights, materials, textures, the dome), so a renderer
-that keeps a still view's raster layer knows when it is stale.
+that keeps a still view's raster layer knows when it is stale; ``moved`` says where,
+when the last update moved geometry alone (``MovedGeometry``: the box around the
+triangles that changed), so such a renderer can draw only the rows that box projects to.
 """
 
 from __future__ import annotations
@@ -45,6 +47,46 @@ from ..model import Light, Material, Scene
 from .dome import build_ambient, dome_source, same_dome
 from .mipmaps import mip_chain
 from .wide_bvh import WideBVH
+
+
+@dataclasses.dataclass(frozen=True)
+class MovedGeometry:
+    """What the last ``DeviceScene.update`` changed, where that was geometry alone (points
+    and normals): it took ``content_version`` from ``since`` to ``since + 1``, and every
+    triangle that changed lies, before and after, within the box ``lo``..``hi`` (the
+    scene's local frame).  A view whose raster layer was drawn at ``since`` is stale only
+    where that box projects."""
+
+    since: int
+    lo: np.ndarray
+    hi: np.ndarray
+
+
+def _rows_differ(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Per row (first index) of two arrays of one shape, whether any of its values differs
+    (one flat comparison, then the rows of the values that differ: numpy's ``any`` over
+    rows of a few values is many times slower)."""
+    rows = np.zeros(len(a), dtype=bool)
+    if len(a):
+        rows[np.flatnonzero(np.ravel(a) != np.ravel(b)) // (a.size // len(a))] = True
+    return rows
+
+
+def _moved_box(old: Scene, new: Scene) -> tuple[bool, tuple[np.ndarray, np.ndarray] | None]:
+    """Whether any point moved between ``old`` and ``new`` (same topology), and the box
+    around the triangles whose corners moved or whose normals changed, at both times
+    (None where none did)."""
+    points = np.zeros(len(new.points), dtype=bool)
+    if new.points is not old.points:
+        points = _rows_differ(new.points, old.points)
+    moved = bool(points.any())
+    if new.corner_normals is not old.corner_normals:
+        triangles = _rows_differ(new.corner_normals, old.corner_normals)  # (T, 3, 3): a row a triangle
+        points[np.asarray(new.indices).reshape(-1, 3)[triangles].ravel()] = True
+    if not points.any():
+        return moved, None
+    both = np.concatenate([old.points[points], new.points[points]]).astype(np.float64)
+    return moved, (both.min(axis=0), both.max(axis=0))
 
 
 def _struct_array(items: list, dtype: type, device: wp.context.Device) -> wp.array:
@@ -225,6 +267,8 @@ class DeviceScene:
         self.geometry_version = 0
         self.materials_version = 0
         self.content_version = 0
+        #: The last update's change, where it was geometry alone (else None).
+        self.moved: MovedGeometry | None = None
         self.indirect = bool(indirect)
         with timer.stage("upload"):
             self.scene = scene
@@ -337,7 +381,10 @@ class DeviceScene:
                 f"({old.triangle_count} -> {scene.triangle_count} triangles); build a new DeviceScene instead",
             )
         changed = False
-        if scene.points is not old.points and not np.array_equal(scene.points, old.points):
+        since = self.content_version
+        points_moved, box = _moved_box(old, scene)
+        elsewhere = False  # something drawn changed beyond the box: colours, lights, materials, images
+        if points_moved:
             self.points.assign(_f32(scene.points, 3))
             if self.mesh is not None:
                 self.mesh.refit()
@@ -350,7 +397,7 @@ class DeviceScene:
             changed = True
         if scene.corner_colors is not old.corner_colors and not np.array_equal(scene.corner_colors, old.corner_colors):
             self.corner_colors = wp.array(_corner_colors(scene), dtype=wp.vec3, device=self.device)
-            changed = True
+            changed = elsewhere = True
         self.scene = scene
         lights_changed = scene.lights != old.lights
         if lights_changed:
@@ -360,12 +407,14 @@ class DeviceScene:
             self._upload_materials(scene)
         if _texture_source(scene) != self._texture_source:
             self._upload_textures(scene)
-            changed = True
+            changed = elsewhere = True
         if not same_dome(dome_source(scene), self._dome_source):
             self._upload_dome(scene)
-            changed = True
+            changed = elsewhere = True
         if changed or lights_changed or materials_changed:
             self.content_version += 1
+            local = box is not None and not (elsewhere or lights_changed or materials_changed)
+            self.moved = MovedGeometry(since, *box) if local else None
         # The indirect estimate follows the lights and the materials; points that only move
         # leave it as it was (an animation barely changes the surface area).
         if self.indirect and (lights_changed or materials_changed):

@@ -25,7 +25,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import warp as wp
@@ -62,6 +62,18 @@ from .trace.fovea import FoveaSampler
 from .trace.guard import GuardedTrace
 
 PRIMARY_PATHS = ("raster", "raycast")
+
+
+class _ViewKey(NamedTuple):
+    """What a raster layer was drawn for (``Renderer._still_view_key``): the device scene,
+    its ``content_version``, the frame buffers and the camera's parameters."""
+
+    scene: int
+    content: int
+    buffers: int
+    view: tuple
+
+
 #: The passes that draw the raster layer (kept across frames of a still view, ``cache_raster``).
 _RASTER_LAYER_PASSES = (PrimaryVisibility, DeferredLighting, AlphaLayer)
 MODES = ("raster", "full", "hybrid")
@@ -294,7 +306,7 @@ class Renderer:
         self.passes = self._make_passes()
         self.buffers = self._make_buffers(self.settings.width, self.settings.height)
         self._accumulator = SampleAccumulator(self.launcher)
-        self._still_view: tuple | None = None  # what the raster layer now in the buffers was drawn for
+        self._still_view: _ViewKey | None = None  # what the raster layer now in the buffers was drawn for
         self._set_scene()
 
     def _check_memory(self, width: int, height: int, scene: Scene, upload: Scene | None) -> None:
@@ -552,7 +564,7 @@ class Renderer:
         out.stats = stats
         return out
 
-    def _moved_rows(self, key: tuple | None, frame: FrameContext) -> RowSpan | None:
+    def _moved_rows(self, key: _ViewKey | None, frame: FrameContext) -> RowSpan | None:
         """The only rows of the kept raster layer that the last scene update can have
         changed, where the view stood still and that update moved geometry alone
         (``DeviceScene.moved``) within a box wholly in front of the camera: the other rows
@@ -563,11 +575,11 @@ class Renderer:
         moved = ds.moved
         if key is None or last is None or moved is None or s.shadow_maps or s.probes or ds.features.blending:
             return None
-        if last[:1] + last[2:] != key[:1] + key[2:] or (last[1], key[1]) != (moved.since, moved.since + 1):
+        if last._replace(content=key.content) != key or (last.content, key.content) != (moved.since, moved.since + 1):
             return None
         return box_rows(frame.camera, moved.lo, moved.hi)
 
-    def _still_view_key(self, frame: FrameContext, spp: int) -> tuple | None:
+    def _still_view_key(self, frame: FrameContext, spp: int) -> _ViewKey | None:
         """What the raster layer of ``frame`` depends on (``RenderSettings.cache_raster``):
         the device scene and what it holds (``content_version``: every update that changed
         anything drawn), the buffers and the camera; None where the layer is not kept (off,
@@ -577,7 +589,7 @@ class Renderer:
             return None
         ds, c = self.device_scene, frame.camera
         view = (*c.origin, *c.right, *c.up, *c.forward, c.tan_x, c.tan_y, c.width, c.height, c.near, c.far)
-        return (id(ds), ds.content_version, id(self.buffers), *view)
+        return _ViewKey(id(ds), ds.content_version, id(self.buffers), view)
 
     def _render_samples(self, camera: Camera, frame: FrameContext, spp: int) -> None:
         """A supersampled frame: every pass but the post once per sample, each sub-frame's

@@ -101,7 +101,8 @@ def box_rows(cam: CameraGPU, lo: np.ndarray, hi: np.ndarray) -> tuple[int, int] 
     """The image rows (first, stop) that the axis-aligned box ``lo``..``hi`` (the camera's
     frame) can cover, ``BOX_ROW_MARGIN`` wider on either side and clipped to the image
     (an empty span where it lies above or below it); None where the box reaches the near
-    plane (its projection is unbounded there)."""
+    plane (its projection is unbounded there).  The host's copy of the rasterizer's
+    projection (``primary.clipping.project``), for the rows only."""
     corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
     d = corners - np.array([cam.origin[0], cam.origin[1], cam.origin[2]], dtype=np.float64)
     depth = d @ np.array([cam.forward[0], cam.forward[1], cam.forward[2]], dtype=np.float64)

@@ -108,12 +108,12 @@ class Rasterizer(PrimaryVisibility):
         bounds = self._cluster_bounds(scene) if count > 0 else None
         clusters = bounds.shape[0] if bounds is not None else 0
 
-        def inputs(slot: int, rows: tuple[int, int] = (top, bottom)) -> list:
+        def inputs(slot: int, band_rows: RowSpan = (top, bottom)) -> list:
             target = RasterTarget()
             target.keys = keys
             target.slot = slot
             target.mode = mode
-            target.row_begin, target.row_end = rows
+            target.row_begin, target.row_end = band_rows
             return [scene.gpu, camera, pts, target, bounds, count]
 
         if clusters < threads * MIN_BAND_CLUSTERS or threads == 1:
@@ -123,8 +123,8 @@ class Rasterizer(PrimaryVisibility):
                 keys[k, top:bottom].fill_(clear)
                 if clusters > 0:
                     first, size = band(k, n, bottom - top)
-                    rows = inputs(k, (top + first, top + first + size))
-                    wp.launch(kernels.coverage_kernel, dim=clusters, inputs=[*rows, 0, 1], device=launcher.device)
+                    piece = inputs(k, (top + first, top + first + size))
+                    wp.launch(kernels.coverage_kernel, dim=clusters, inputs=[*piece, 0, 1], device=launcher.device)
 
             launcher.run(clear_and_cover_rows, threads)
             return

@@ -10,7 +10,7 @@ import math
 import numpy as np
 import pytest
 import warp as wp
-from trace_kit import ALL_FEATURES, emissive, trace_variants
+from trace_kit import ALL_FEATURES, emissive, grid_quad, trace_variants
 
 from warp_hybrid.core.camera import make_camera_gpu
 from warp_hybrid.core.gbuffer import GBuffer
@@ -85,19 +85,6 @@ def test_soft_shadow_of_a_sphere_light_has_a_penumbra(device: str) -> None:
     assert np.array_equal(again[..., 0], soft)
 
 
-def _grid_quad(corner, edge_u, edge_v, n: int, material: int) -> MeshInput:
-    """A parallelogram split into n x n cells (2 n^2 triangles), facing edge_u x edge_v."""
-    c, u, v = (np.asarray(a, dtype=np.float64) for a in (corner, edge_u, edge_v))
-    s, t = np.meshgrid(np.linspace(0.0, 1.0, n + 1), np.linspace(0.0, 1.0, n + 1))
-    pts = c + s[..., None] * u + t[..., None] * v
-    idx = []
-    for r in range(n):
-        for k in range(n):
-            a, b = r * (n + 1) + k, r * (n + 1) + k + 1
-            idx += [(a, b, b + n + 1), (a, b + n + 1, a + n + 1)]
-    return MeshInput(pts.reshape(-1, 3).astype(np.float32), np.asarray(idx, np.int32), material)
-
-
 def _pane_scene(opacity: float, thin: bool = True, blended: bool = False):
     """A red pane (y = 1, thin-walled, 8 x 8 cells; glass, or alpha-blended coverage
     when ``blended``) between a light straight above and a white floor."""
@@ -107,7 +94,7 @@ def _pane_scene(opacity: float, thin: bool = True, blended: bool = False):
     mats = [Material("/floor", diffuse=(0.8, 0.8, 0.8), roughness=0.9), pane]
     meshes = [
         quad((-3.0, 0.0, 3.0), (6.0, 0.0, 0.0), (0.0, 0.0, -6.0), 0),
-        _grid_quad((-1.0, 1.0, 1.0), (2.0, 0.0, 0.0), (0.0, 0.0, -2.0), 8, 1),
+        grid_quad((-1.0, 1.0, 1.0), (2.0, 0.0, 0.0), (0.0, 0.0, -2.0), 8, 1),
     ]
     light = Light(LightKind.DISTANT, "/sun", (2.0, 2.0, 2.0), direction=(0.0, -1.0, 0.0))
     cam = look_at_camera((0.0, 5.0, 6.0), (0.0, 0.0, 0.0))

@@ -120,3 +120,16 @@ def box(
 def emissive(name: str, color: tuple[float, float, float]) -> Material:
     """A black, rough, light-emitting material (its radiance is ``color``)."""
     return Material(name, diffuse=(0.0, 0.0, 0.0), emissive=color, roughness=1.0)
+
+
+def grid_quad(corner, edge_u, edge_v, n: int, material: int) -> MeshInput:
+    """A parallelogram split into n x n cells (2 n^2 triangles), facing edge_u x edge_v."""
+    c, u, v = (np.asarray(a, dtype=np.float64) for a in (corner, edge_u, edge_v))
+    s, t = np.meshgrid(np.linspace(0.0, 1.0, n + 1), np.linspace(0.0, 1.0, n + 1))
+    pts = c + s[..., None] * u + t[..., None] * v
+    idx = []
+    for r in range(n):
+        for k in range(n):
+            a, b = r * (n + 1) + k, r * (n + 1) + k + 1
+            idx += [(a, b, b + n + 1), (a, b + n + 1, a + n + 1)]
+    return MeshInput(pts.reshape(-1, 3).astype(np.float32), np.asarray(idx, np.int32), material)

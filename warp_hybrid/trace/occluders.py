@@ -116,10 +116,13 @@ class Occluders:
 
     def refresh(self) -> None:
         """Refit the BVHs and their 4-wide copies if the scene's points moved since the
-        last call (``DeviceScene.geometry_version``)."""
-        if self.scene.geometry_version != self._geometry_version:
+        last call (``DeviceScene.geometry_version``): the copies only where the points
+        moved when that was one update (``DeviceScene.moved_points``), else whole."""
+        version = self.scene.geometry_version
+        if version != self._geometry_version:
+            moved = self.scene.moved_points if version == self._geometry_version + 1 else None
             for mesh in self._meshes:
                 mesh.refit()
             for wide in self._wides:
-                wide.refit()
-            self._geometry_version = self.scene.geometry_version
+                wide.refit(moved)
+            self._geometry_version = version

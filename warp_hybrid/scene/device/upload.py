@@ -72,20 +72,24 @@ def _rows_differ(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return rows
 
 
-def _moved_box(old: Scene, new: Scene) -> tuple[bool, tuple[np.ndarray, np.ndarray] | None]:
-    """Whether any point moved between ``old`` and ``new`` (same topology), and the box
-    around the triangles whose corners moved or whose normals changed, at both times
-    (None where none did)."""
-    points = np.zeros(len(new.points), dtype=bool)
-    if new.points is not old.points:
-        points = _rows_differ(new.points, old.points)
-    moved = bool(points.any())
+def _moved_box(old: Scene, new: Scene) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray] | None]:
+    """The points that moved between ``old`` and ``new`` (same topology; a bool each), and
+    the box around the triangles whose corners moved or whose normals changed, at both
+    times (None where none did)."""
+    if new.points is old.points:
+        moved = np.zeros(len(new.points), dtype=bool)
+    else:
+        moved = _rows_differ(new.points, old.points)
+    changed = moved
     if new.corner_normals is not old.corner_normals:
-        triangles = _rows_differ(new.corner_normals, old.corner_normals)  # (T, 3, 3): a row a triangle
-        points[np.asarray(new.indices).reshape(-1, 3)[triangles].ravel()] = True
-    if not points.any():
+        triangles = np.flatnonzero(_rows_differ(new.corner_normals, old.corner_normals))  # (T, 3, 3): a row a triangle
+        if len(triangles):
+            changed = moved.copy()
+            changed[np.asarray(new.indices).reshape(-1, 3)[triangles].ravel()] = True
+    changed = np.flatnonzero(changed)
+    if not len(changed):
         return moved, None
-    both = np.concatenate([old.points[points], new.points[points]]).astype(np.float64)
+    both = np.concatenate([old.points[changed], new.points[changed]]).astype(np.float64)
     return moved, (both.min(axis=0), both.max(axis=0))
 
 
@@ -269,6 +273,9 @@ class DeviceScene:
         self.content_version = 0
         #: The last update's change, where it was geometry alone (else None).
         self.moved: MovedGeometry | None = None
+        #: The points the update to ``geometry_version`` moved (a bool each; None before the
+        #: first): a BVH over these points refitted at the version before it refits only theirs.
+        self.moved_points: np.ndarray | None = None
         self.indirect = bool(indirect)
         with timer.stage("upload"):
             self.scene = scene
@@ -382,15 +389,16 @@ class DeviceScene:
             )
         changed = False
         since = self.content_version
-        points_moved, box = _moved_box(old, scene)
+        moved_points, box = _moved_box(old, scene)
         elsewhere = False  # something drawn changed beyond the box: colours, lights, materials, images
-        if points_moved:
+        if moved_points.any():
             self.points.assign(_f32(scene.points, 3))
             if self.mesh is not None:
                 self.mesh.refit()
                 if self._wide is not None:
-                    self._wide.refit()
+                    self._wide.refit(moved_points)
             self.geometry_version += 1
+            self.moved_points = moved_points
             changed = True
         if scene.corner_normals is not old.corner_normals:
             self.corner_normals.assign(_f32(scene.corner_normals, 3))

@@ -33,8 +33,8 @@ and the native code compiles to a stub under ``__CUDA_ARCH__``.  The scene's own
 (``trace/occluders.py``); the ray-cast primaries (``--primary raycast``, the fovea
 sampler's window samples) query the scene's copy too.  ``use_wide_bvh`` is the one rule
 for whether a pass queries the copies.  After the mesh's points move (animated points)
-``refit`` copies the new corners and computes the boxes again; the tree's shape does
-not change on a refit.
+``refit`` copies the new corners and computes the boxes again (given the points that
+moved, only theirs and the boxes above them); the tree's shape does not change on a refit.
 """
 
 from __future__ import annotations
@@ -51,7 +51,6 @@ from .wide_bvh_build import (
     NODE_FLOATS,
     build_kernel,
     collapse_kernel,
-    corners_kernel,
     refit_kernel,
 )
 
@@ -381,6 +380,9 @@ class WideBVH:
         g.corners = wp.empty(9 * triangles, dtype=wp.float32, device=dev)
         g.nodes = nodes
         self.gpu = g
+        # the refit's flags: a byte a triangle (its corners moved), a byte a node (a box changed)
+        self._dirty = (wp.empty(triangles, dtype=wp.uint8, device=dev), wp.empty(nodes, dtype=wp.uint8, device=dev))
+        self._every = wp.zeros(1, dtype=wp.uint8, device=dev)  # the moved flags a whole refit does not read
         self.refit()
 
     @property
@@ -388,13 +390,20 @@ class WideBVH:
         """4-wide nodes (0 for an empty tree)."""
         return int(self.gpu.nodes)
 
-    def refit(self) -> None:
-        """Copy the mesh's corners again and compute every box from them (after its points
-        moved; the tree's shape stays)."""
+    def refit(self, moved: np.ndarray | None = None) -> None:
+        """Copy the mesh's corners again and compute the boxes from them (after its points
+        moved; the tree's shape stays).  ``moved``: a bool per point of the mesh's points
+        array, True where a point moved since the last refit (e.g. ``DeviceScene.update``'s);
+        then only the triangles touching one, their leaves and the nodes above them are
+        done again, with the same result as the whole refit.  None: everything."""
         if self.gpu.nodes == 0:
             return
         g, dev = self.gpu, self.mesh.device
-        wp.launch(
-            corners_kernel, g.faces.shape[0], [self.mesh.points, self.mesh.indices, g.faces, g.corners], device=dev
-        )
-        wp.launch(refit_kernel, 1, [g.node_data, g.leaves, g.corners, g.nodes], device=dev)
+        mask = self._every
+        if moved is not None:
+            moved = np.ascontiguousarray(moved, dtype=bool)
+            if moved.shape != (self.mesh.points.shape[0],):
+                raise ValueError(f"moved has shape {moved.shape}, expected ({self.mesh.points.shape[0]},): one a point")
+            mask = wp.array(moved.view(np.uint8), dtype=wp.uint8, device=dev, copy=False)
+        inputs = [self.mesh.points, self.mesh.indices, g.faces, mask, int(moved is None), g.corners]
+        wp.launch(refit_kernel, 1, [*inputs, g.node_data, g.leaves, g.nodes, *self._dirty], device=dev)

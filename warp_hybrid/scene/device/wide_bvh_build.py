@@ -18,12 +18,14 @@ so no 4-wide one is, and the traversal's stack (``wide_bvh.STACK_SIZE``) never f
 The collapse (``collapse_kernel``) takes a binary node's children, then the children of
 its largest child (by surface area), until there are four or only leaves, numbering the
 4-wide nodes as it meets them, so a node's children always have larger numbers than the
-node: ``refit_kernel`` (one thread) computes the boxes from the last node to the first,
-each leaf child's box from its triangles' corners (``corners_kernel``, one item a
-triangle, copied from the points first) and each node child's as the union of that
-node's four.  The build itself ends with the same two launches, so the boxes have one
-rule.  A refit keeps the tree's shape (animated points: the boxes grow looser as the
-points move from where they were built, the answers stay exact).
+node: ``refit_kernel`` (one thread) copies the triangles' corners from the points, then
+computes the boxes from the last node to the first, each leaf child's box from its
+triangles' corners and each node child's as the union of that node's four.  The build
+itself ends with the same launch, so the boxes have one rule.  A refit keeps the tree's
+shape (animated points: the boxes grow looser as the points move from where they were
+built, the answers stay exact); given the points that moved, it touches only their
+triangles, their leaves and the nodes above them (a small moving mesh in a large scene:
+microseconds instead of a sweep over every triangle).
 """
 
 from __future__ import annotations
@@ -294,58 +296,44 @@ def collapse_kernel(
 @wp.func_native(
     """
 #if !defined(__CUDA_ARCH__)
-const int face = faces.data[k];
-const float* P = (const float*)points.data;
-for (int c = 0; c < 3; ++c) {
-    const float* p = P + 3 * indices.data[3 * face + c];
-    corners.data[9 * k + 3 * c] = p[0];
-    corners.data[9 * k + 3 * c + 1] = p[1];
-    corners.data[9 * k + 3 * c + 2] = p[2];
-}
-#endif
-"""
-)
-def _corners(
-    points: wp.array(dtype=wp.vec3),
-    indices: wp.array(dtype=wp.int32),
-    faces: wp.array(dtype=wp.int32),
-    corners: wp.array(dtype=wp.float32),
-    k: int,
-): ...
-
-
-@wp.kernel
-def corners_kernel(
-    points: wp.array(dtype=wp.vec3),
-    indices: wp.array(dtype=wp.int32),
-    faces: wp.array(dtype=wp.int32),
-    corners: wp.array(dtype=wp.float32),
-):
-    """Per triangle in leaf order: its three corners (9 floats) from the points."""
-    _corners(points, indices, faces, corners, wp.tid())
-
-
-@wp.func_native(
-    """
-#if !defined(__CUDA_ARCH__)
 const float inf = __builtin_inff();
+const float* P = (const float*)points.data;
+const int* I = indices.data;
+const unsigned char* m = moved.data;
+unsigned char* dirty = triangle_dirty.data;
+float* tc = corners.data;
+const int T = faces.shape[0];
+for (int k = 0; k < T; ++k) {
+    const int* f = I + 3 * faces.data[k];
+    dirty[k] = every || m[f[0]] || m[f[1]] || m[f[2]];
+    if (!dirty[k]) continue;
+    for (int c = 0; c < 3; ++c)
+        for (int a = 0; a < 3; ++a) tc[9 * k + 3 * c + a] = P[3 * f[c] + a];
+}
+unsigned char* changed = node_changed.data;
 for (int node = nodes - 1; node >= 0; --node) {
     float* b = node_data.data + NODE_FLOATS * node;
     const int* children = (const int*)(b + CHILD_LANES);
+    changed[node] = 0;
     for (int j = 0; j < 4; ++j) {
         float lo[3] = {inf, inf, inf}, hi[3] = {-inf, -inf, -inf};
         const int c = children[j];
         if (c == NO_CHILD) {
+            if (!every) continue;
         } else if (c < 0) {
-            const int leaf = -c - 1;
-            for (int t = leaves.data[2 * leaf]; t < leaves.data[2 * leaf + 1]; ++t)
+            const int leaf = -c - 1, first = leaves.data[2 * leaf], end = leaves.data[2 * leaf + 1];
+            bool stale = false;
+            for (int t = first; t < end && !stale; ++t) stale = dirty[t];
+            if (!stale) continue;
+            for (int t = first; t < end; ++t)
                 for (int v = 0; v < 3; ++v)
                     for (int a = 0; a < 3; ++a) {
-                        const float x = corners.data[9 * t + 3 * v + a];
+                        const float x = tc[9 * t + 3 * v + a];
                         lo[a] = wp::min(lo[a], x);
                         hi[a] = wp::max(hi[a], x);
                     }
         } else {
+            if (!changed[c]) continue;
             const float* cb = node_data.data + NODE_FLOATS * c;
             for (int a = 0; a < 3; ++a)
                 for (int q = 0; q < 4; ++q) {
@@ -354,6 +342,7 @@ for (int node = nodes - 1; node >= 0; --node) {
                 }
         }
         for (int a = 0; a < 3; ++a) { b[4 * a + j] = lo[a]; b[12 + 4 * a + j] = hi[a]; }
+        changed[node] = 1;
     }
 }
 #endif
@@ -362,21 +351,41 @@ for (int node = nodes - 1; node >= 0; --node) {
     .replace("NO_CHILD", NO_CHILD_C)
 )
 def _refit(
+    points: wp.array(dtype=wp.vec3),
+    indices: wp.array(dtype=wp.int32),
+    faces: wp.array(dtype=wp.int32),
+    moved: wp.array(dtype=wp.uint8),
+    every: int,
+    corners: wp.array(dtype=wp.float32),
     node_data: wp.array(dtype=wp.float32),
     leaves: wp.array(dtype=wp.int32),
-    corners: wp.array(dtype=wp.float32),
     nodes: int,
+    triangle_dirty: wp.array(dtype=wp.uint8),
+    node_changed: wp.array(dtype=wp.uint8),
 ): ...
 
 
 @wp.kernel
 def refit_kernel(
+    points: wp.array(dtype=wp.vec3),
+    indices: wp.array(dtype=wp.int32),
+    faces: wp.array(dtype=wp.int32),
+    moved: wp.array(dtype=wp.uint8),
+    every: int,
+    corners: wp.array(dtype=wp.float32),
     node_data: wp.array(dtype=wp.float32),
     leaves: wp.array(dtype=wp.int32),
-    corners: wp.array(dtype=wp.float32),
     nodes: int,
+    triangle_dirty: wp.array(dtype=wp.uint8),
+    node_changed: wp.array(dtype=wp.uint8),
 ):
-    """Every node's four child boxes (one thread, the last node first): a leaf's from its
+    """The tree's corners and boxes from the points (one thread).  With ``every`` != 0,
+    all of them: each triangle's three corners (9 floats, in leaf order) copied from the
+    points, then every node's four child boxes, the last node first: a leaf's from its
     triangles' corners, a node's as the union of its own four, an unused slot an inverted
-    box no ray enters; the children are read from the node itself."""
-    _refit(node_data, leaves, corners, nodes)
+    box no ray enters (the children are read from the node itself).  Otherwise only what
+    the points flagged in ``moved`` (one byte a point) change: the corners of the
+    triangles that touch one (flagged in ``triangle_dirty``), the boxes of the leaves that
+    hold one and of the nodes above them (``node_changed``); every other box already holds
+    what the whole refit would write, so the result is the same bit for bit."""
+    _refit(points, indices, faces, moved, every, corners, node_data, leaves, nodes, triangle_dirty, node_changed)

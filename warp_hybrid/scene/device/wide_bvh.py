@@ -79,9 +79,63 @@ class WideBVHGPU:
     nodes: int
 
 
-# The traversal shared by both queries: ``ANY`` (0 or 1) picks the any-hit query.
-_TRAVERSE = (
-    """
+# The children a node's ray enters, nearest first (a tie: the lower lane), taken or
+# pushed; two spellings of the one rule, each where it measured faster (README, "4-wide
+# BVH copies"): lane by lane for the closest hit, from the lanes' mask for the any-hit
+# (8-16% faster shadow rays there, 4-15% slower closest hits).
+_ENTER_BY_LANE = """const int* c = (const int*)(b + CHILD_LANES);
+        int hit_c[4];
+        float hit_t[4];
+        int hits = 0;
+        for (int j = 0; j < 4; ++j) {
+            if (c[j] != none && near_t[j] <= far_t[j] && near_t[j] <= best) {
+                int q = hits++;
+                while (q > 0 && hit_t[q - 1] > near_t[j]) { hit_t[q] = hit_t[q - 1]; hit_c[q] = hit_c[q - 1]; --q; }
+                hit_t[q] = near_t[j];
+                hit_c[q] = c[j];
+            }
+        }
+        if (hits == 0) { cur = none; break; }
+        if (sp + hits - 1 > STACK) { cur = none; sp = 0; break; }
+        for (int q = hits - 1; q >= 1; --q) { stack[sp] = hit_c[q]; stack_t[sp] = hit_t[q]; ++sp; }
+        cur = hit_c[0];"""
+
+_ENTER_BY_MASK = """const int* c = (const int*)(b + CHILD_LANES);
+        const v4i entered = (*(const v4i*)c != none) & (near_t <= far_t) & (near_t <= best);
+        int bits = __builtin_reduce_or(entered & (v4i){1, 2, 4, 8});
+        if (bits == 0) { cur = none; break; }
+        const int first = __builtin_ctz(bits);
+        bits &= bits - 1;
+        if (bits == 0) { cur = c[first]; continue; }  // one child entered: no push
+        const int second = __builtin_ctz(bits);
+        bits &= bits - 1;
+        if (bits == 0) {  // two: the nearer first, the other pushed
+            if (sp + 1 > STACK) { cur = none; sp = 0; break; }
+            const bool swap = near_t[second] < near_t[first];
+            const int near_j = swap ? second : first, far_j = swap ? first : second;
+            stack[sp] = c[far_j]; stack_t[sp] = near_t[far_j]; ++sp;
+            cur = c[near_j];
+            continue;
+        }
+        int hit_c[4];
+        float hit_t[4];
+        int hits = 0;
+        for (int j = first; j < 4; ++j) {  // three or four: sorted by insertion, stable in lane order
+            if (entered[j]) {
+                int q = hits++;
+                while (q > 0 && hit_t[q - 1] > near_t[j]) { hit_t[q] = hit_t[q - 1]; hit_c[q] = hit_c[q - 1]; --q; }
+                hit_t[q] = near_t[j];
+                hit_c[q] = c[j];
+            }
+        }
+        if (sp + hits - 1 > STACK) { cur = none; sp = 0; break; }
+        for (int q = hits - 1; q >= 1; --q) { stack[sp] = hit_c[q]; stack_t[sp] = hit_t[q]; ++sp; }
+        cur = hit_c[0];"""
+
+
+# The traversal shared by both queries (``if (ANY) return HIT;`` is the any-hit's early
+# exit); ``ENTER_CHILDREN`` is one of the two spellings above.
+_TRAVERSE = """
 #if defined(__CUDA_ARCH__)
 return MISS;
 #else
@@ -139,22 +193,7 @@ while (true) {
         const v4f far_t = __builtin_elementwise_min(
             __builtin_elementwise_min(__builtin_elementwise_max(t0x, t1x), __builtin_elementwise_max(t0y, t1y)),
             __builtin_elementwise_max(t0z, t1z)) * widen;
-        const int* c = (const int*)(b + CHILD_LANES);
-        int hit_c[4];
-        float hit_t[4];
-        int hits = 0;
-        for (int j = 0; j < 4; ++j) {
-            if (c[j] != none && near_t[j] <= far_t[j] && near_t[j] <= best) {
-                int q = hits++;
-                while (q > 0 && hit_t[q - 1] > near_t[j]) { hit_t[q] = hit_t[q - 1]; hit_c[q] = hit_c[q - 1]; --q; }
-                hit_t[q] = near_t[j];
-                hit_c[q] = c[j];
-            }
-        }
-        if (hits == 0) { cur = none; break; }
-        if (sp + hits - 1 > STACK) { cur = none; sp = 0; break; }
-        for (int q = hits - 1; q >= 1; --q) { stack[sp] = hit_c[q]; stack_t[sp] = hit_t[q]; ++sp; }
-        cur = hit_c[0];
+        ENTER_CHILDREN
     }
     if (cur != none) {
         const int leaf = -cur - 1;
@@ -220,17 +259,26 @@ while (true) {
 if (best_k < 0) return MISS;
 return FOUND;
 #endif
-""".replace("STACK", str(STACK_SIZE))
-    .replace("NODE_FLOATS", str(NODE_FLOATS))
-    .replace("CHILD_LANES", str(CHILD_LANES))
-    .replace("NO_CHILD", NO_CHILD_C)
-)
+"""
+
+
+def _traversal(enter_children: str) -> str:
+    """``_TRAVERSE`` with ``enter_children`` (one of the two spellings) and the constants."""
+    return (
+        _TRAVERSE.replace("ENTER_CHILDREN", enter_children)
+        .replace("STACK", str(STACK_SIZE))
+        .replace("NODE_FLOATS", str(NODE_FLOATS))
+        .replace("CHILD_LANES", str(CHILD_LANES))
+        .replace("NO_CHILD", NO_CHILD_C)
+    )
+
 
 #: (face, t, u, v, normal x, y, z, 1) of a hit; all -1 for none.
 _hit8 = wp.types.vector(length=8, dtype=wp.float32)
 
 _CLOSEST = (
-    _TRAVERSE.replace("MISS", "wp::vec_t<8, float>(-1.0f)")
+    _traversal(_ENTER_BY_LANE)
+    .replace("MISS", "wp::vec_t<8, float>(-1.0f)")
     .replace("if (ANY) return HIT;", "")
     .replace(
         "FOUND",
@@ -241,7 +289,12 @@ _CLOSEST = (
     )
 )
 
-_ANY = _TRAVERSE.replace("MISS", "false").replace("if (ANY) return HIT;", "return true;").replace("FOUND", "true")
+_ANY = (
+    _traversal(_ENTER_BY_MASK)
+    .replace("MISS", "false")
+    .replace("if (ANY) return HIT;", "return true;")
+    .replace("FOUND", "true")
+)
 
 
 @wp.func_native(_CLOSEST)

@@ -94,9 +94,15 @@ def test_injected_clock_times_every_stage(device: str) -> None:
     assert r.setup_ms == {"upload": pytest.approx(1.0), "bvh_build": pytest.approx(1.0)}
 
 
-def test_update_scene_refits_moved_geometry(device: str) -> None:
+@pytest.mark.parametrize("primary", ["raster", "raycast"])
+@pytest.mark.parametrize("wide_bvh", [None, False])
+def test_update_scene_refits_moved_geometry(device: str, primary: str, wide_bvh: bool | None) -> None:
+    """The moved sphere is where the next frame draws it, through every BVH its passes
+    query: the rasterizer or ray-cast primaries, the tracer's 4-wide copies (the CPU's
+    default) or Warp's own trees."""
     scene = sphere_scene()
-    with Renderer(scene, RenderSettings(width=W, height=H, device=device)) as r:
+    settings = RenderSettings(width=W, height=H, device=device, primary=primary, wide_bvh=wide_bvh)
+    with Renderer(scene, settings) as r:
         before = r.render(scene.cameras[0]).aovs()["depth"].copy()
         r.update_scene(sphere_scene(center_x=1.5))
         after = r.render(scene.cameras[0]).aovs()["depth"]

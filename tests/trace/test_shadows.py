@@ -241,17 +241,21 @@ def test_no_acne_at_grazing_light(device: str, scale: float, incidence_deg: floa
     assert np.all(np.isnan(out.visibility[..., 0][~hit]))
 
 
-def test_shadow_bvhs_follow_animated_points(device: str) -> None:
-    """Moving the red pane (same topology, ``DeviceScene.update``) moves its coloured
-    shadow in the next frame traced by the same tracer (its BVHs are refitted)."""
-    scene, cam = _pane_scene(0.3)
+@pytest.mark.parametrize("opacity", [0.3, 1.0])
+@pytest.mark.parametrize("wide_bvh", [None, False])
+def test_shadow_bvhs_follow_animated_points(device: str, wide_bvh: bool | None, opacity: float) -> None:
+    """Moving the red pane (same topology, ``DeviceScene.update``) moves its shadow in the
+    next frame traced by the same tracer (its BVHs are refitted), with the 4-wide copies
+    (the CPU's default) and with Warp's own trees; the glass pane's shadow comes from the
+    tracer's own two BVHs, the opaque one's from the scene's BVH."""
+    scene, cam = _pane_scene(opacity)
     ds = DeviceScene(scene, device)
     camera = make_camera_gpu(cam, W, H)
     gb = GBuffer(W, H, device)
     pixels = wp.array(np.arange(W * H, dtype=np.int32), dtype=wp.int32, device=device)
     shadows = []
     with Launcher(device, threads=1) as launcher:
-        tracer = Tracer(launcher, TraceSettings(), ALL_FEATURES)
+        tracer = Tracer(launcher, TraceSettings(wide_bvh=wide_bvh), ALL_FEATURES)
         for shift in (0.0, 1.5):
             points = scene.points.copy()
             points[4:] += np.array([shift, 0.0, 0.0], np.float32)  # the pane's vertices

@@ -108,7 +108,7 @@ def probe_position(scene: DeviceScene, camera: np.ndarray) -> np.ndarray:
     target = np.clip(camera, lo + inset, hi - inset)
     offset = target - camera
     length = float(np.linalg.norm(offset))
-    if length == 0.0 or scene.mesh is None:
+    if length == 0.0 or scene.warp_bvh() is None:
         return target
     direction = offset / length
     t = wp.zeros(1, dtype=float, device=scene.device)

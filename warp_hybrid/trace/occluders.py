@@ -15,7 +15,8 @@ so they are in neither BVH.  So the tracer keeps
 
 When every triangle is opaque and none emits, the scene's own BVH serves as
 ``opaque`` and nothing is built.  Both meshes share the ``DeviceScene``'s points
-array, so after an animated update they are refitted, not rebuilt.
+array, so after an animated update they are refitted, not rebuilt (with ``wide``, only
+their 4-wide copies: the queries never read Warp's trees then).
 
 With ``wide`` (the CPU's default, ``TraceSettings.wide_bvh``) each of the two also has
 its 4-wide copy (``scene/device/wide_bvh.WideBVH``: the same tree and answers, 2-3x
@@ -115,14 +116,18 @@ class Occluders:
         return scene is self.scene and self._materials_version == scene.materials_version
 
     def refresh(self) -> None:
-        """Refit the BVHs and their 4-wide copies if the scene's points moved since the
-        last call (``DeviceScene.geometry_version``): the copies only where the points
-        moved when that was one update (``DeviceScene.moved_points``), else whole."""
+        """Refit what the queries read if the scene's points moved since the last call
+        (``DeviceScene.geometry_version``): with ``wide`` the 4-wide copies (only where the
+        points moved when that was one update, ``DeviceScene.moved_points``; else whole),
+        without it the two BVHs and the scene's own (``DeviceScene.warp_bvh``)."""
         version = self.scene.geometry_version
         if version != self._geometry_version:
-            moved = self.scene.moved_points if version == self._geometry_version + 1 else None
-            for mesh in self._meshes:
-                mesh.refit()
-            for wide in self._wides:
-                wide.refit(moved)
+            if self.wide:  # the queries walk the copies alone: Warp's trees are never read
+                moved = self.scene.moved_points if version == self._geometry_version + 1 else None
+                for wide in self._wides:
+                    wide.refit(moved)
+            else:
+                for mesh in self._meshes:
+                    mesh.refit()
+                self.scene.warp_bvh()  # the scene's own tree serves the path's hits (and may be ``opaque``)
             self._geometry_version = version

@@ -3,8 +3,9 @@ and the dome's ambient data.
 
 Built once from a host ``Scene``.  ``SceneGPU`` (``core/scene_gpu.py``) is the single
 struct kernels take.  ``DeviceScene.update`` takes the same scene at another time: it
-copies moved points and normals and *refits* the ``wp.Mesh`` BVH instead of
-rebuilding it, re-uploads lights, materials, textures and the dome when they changed,
+copies moved points and normals and *refits* the BVHs instead of rebuilding them
+(the 4-wide copy at once, only where the points moved; Warp's own tree when a pass
+next queries it, ``warp_bvh``), re-uploads lights, materials, textures and the dome when they changed,
 re-analyses the features, and refuses clearly when the topology changed.
 ``geometry_version`` counts point updates and ``materials_version`` material uploads,
 so passes that keep derived data (the tracer's shadow meshes) know when to refit or
@@ -298,6 +299,7 @@ class DeviceScene:
             self.mesh = wp.Mesh(points=self.points, indices=self.indices) if scene.triangle_count > 0 else None
         self._wide: WideBVH | None = None
         self._no_wide: WideBVH | None = None
+        self._warp_bvh_stale = False
         self.gpu = self._make_struct()
 
     @property
@@ -309,12 +311,24 @@ class DeviceScene:
             self._wide = WideBVH(cpu_mesh, self.scene.triangle_count if cpu_mesh is not None else 0, self.device)
         return self._wide
 
+    def warp_bvh(self) -> wp.Mesh | None:
+        """``mesh``, its BVH (Warp's own tree) following the current points: refitted here
+        when an update moved them since.  A pass whose kernels query ``mesh`` (``gpu.mesh``)
+        with Warp's queries calls this before it launches them.  The 4-wide copies are
+        refitted by every update, so a CPU frame that queries only those (the default)
+        never pays for Warp's refit."""
+        if self._warp_bvh_stale and self.mesh is not None:
+            self.mesh.refit()
+        self._warp_bvh_stale = False
+        return self.mesh
+
     def query_bvh(self, wide: bool) -> WideBVH:
         """The copy a pass that queries the scene passes to its kernels: ``wide_bvh``
         with ``wide`` (``wide_bvh.use_wide_bvh``), else an empty one, whose kernels then
-        use Warp's own query on ``mesh``."""
+        use Warp's own query on ``mesh`` (made current here, ``warp_bvh``)."""
         if wide:
             return self.wide_bvh
+        self.warp_bvh()
         if self._no_wide is None:
             self._no_wide = WideBVH(None, 0, self.device)
         return self._no_wide
@@ -393,10 +407,9 @@ class DeviceScene:
         elsewhere = False  # something drawn changed beyond the box: colours, lights, materials, images
         if moved_points.any():
             self.points.assign(_f32(scene.points, 3))
-            if self.mesh is not None:
-                self.mesh.refit()
-                if self._wide is not None:
-                    self._wide.refit(moved_points)
+            self._warp_bvh_stale = True  # refitted by the first pass that queries it (``warp_bvh``)
+            if self._wide is not None:
+                self._wide.refit(moved_points)
             self.geometry_version += 1
             self.moved_points = moved_points
             changed = True

@@ -13,7 +13,8 @@ controller learning on): the traced area is the median of the replays' means (th
 range beside it), the other columns pool every replay's frames.
 
     .venv/bin/python scripts/bench_budget.py [--scenes staircase classroom_animated] [--size 640x480]
-        [--fps 15] [--device cpu|cuda:0] [--raster-cache off|on] [--bvh wide|warp] [--replays 1]
+        [--fps 15] [--device cpu|cuda:0] [--raster-cache off|on] [--shadow-cache on|off] [--bvh wide|warp]
+        [--replays 1]
         [--json out/bench_budget.json]
 """
 
@@ -36,11 +37,13 @@ def measure_scene(
     device: str = "cpu",
     raster_cache: str = "off",
     bvh: str = "wide",
+    shadow_cache: str = "on",
     replays: int = 1,
 ) -> dict:
     """Raster-only median (every frame drawn whole) and ``replays`` budgeted replays of the
     trace for one scene (``raster_cache`` "on": the still view's raster layer kept across
-    frames, as the replay command does by default)."""
+    frames, as the replay command does by default; ``shadow_cache`` "on": its primary
+    shadows too, likewise)."""
     from gaze.factory import open_source
     from warp_hybrid.renderer import RenderSettings
     from warp_hybrid.replay.loop import AdaptiveLoop, LoopSettings
@@ -62,6 +65,7 @@ def measure_scene(
         mode="hybrid",
         device=device,
         cache_raster=raster_cache == "on",
+        cache_shadows=shadow_cache == "on",
         wide_bvh=wide_bvh_setting(bvh),
     )
     frames_ms, replay_traced, errors = [], [], []
@@ -118,6 +122,15 @@ def main() -> None:
                 },
             ),
             BVH_OPTION,
+            (
+                "--shadow-cache",
+                {
+                    "choices": ("off", "on"),
+                    "default": "on",
+                    "help": "with --raster-cache on, keep the still view's primary shadows across frames (default on; "
+                    "the images are the same)",
+                },
+            ),
             ("--replays", {"type": int, "default": 1, "help": "replays of the trace per scene (default 1)"}),
         ],
     )
@@ -138,6 +151,8 @@ def main() -> None:
             f"| {r['p50_ms']:.1f} | {r['p95_ms']:.1f} | {err_text} |{spread_text}"
         )
     cache = "raster layer kept across still frames" if args.raster_cache == "on" else "every frame drawn whole"
+    if args.raster_cache == "on":
+        cache += ", their primary shadows too" if args.shadow_cache == "on" else ", the shadows traced every frame"
     replayed = f", replayed {args.replays} times (traced area: the median replay)" if args.replays > 1 else ""
     print(f"\n{width}x{height}, {fps:g} FPS (budget {1000.0 / fps:.1f} ms), the shipped 5 s trace{replayed}, {cache}")
     if args.json:

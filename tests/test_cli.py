@@ -150,6 +150,28 @@ def test_replay_needs_an_output_and_a_positive_length(tmp_path: Path, capsys: py
     assert list(tmp_path.iterdir()) == []
 
 
+def test_replay_keeps_a_still_views_shadows_unless_told_not_to(tmp_path: Path) -> None:
+    """A fixed window over the still Cornell box: every frame (the warm-up frame drew the
+    view first) traces its primary shadows again only with ``--no-shadow-cache`` (the
+    stats' ``rays_shadow``: the secondary hits' are traced either way), and the frames
+    are the same either way."""
+    import csv
+
+    rows, frames = {}, {}
+    for name, extra in (("kept", []), ("traced", ["--no-shadow-cache"])):
+        out = tmp_path / name
+        args = ["replay", str(CORNELL), "--gaze", "fixed:0.5,0.5", "--size", "48x36", "--window", "0.2"]
+        args += ["--frames", "3", "--stats", str(out / "s.csv"), "--frames-dir", str(out / "png"), *extra]
+        assert main(args) == 0
+        with open(out / "s.csv", newline="") as f:
+            rows[name] = [int(r["rays_shadow"]) for r in csv.DictReader(f)]
+        frames[name] = [cv2.imread(str(p)) for p in sorted((out / "png").iterdir())]
+    assert len(set(rows["traced"])) == 1 and len(set(rows["kept"])) == 1
+    assert 0 < rows["kept"][0] < rows["traced"][0]
+    for a, b in zip(frames["kept"], frames["traced"], strict=True):
+        np.testing.assert_array_equal(a, b)
+
+
 def _stage_with_a_broken_mesh_and_a_subdivided_cube(tmp_path: Path) -> Path:
     """One good subdivided cube (catmullClark authored) and one mesh whose indices run
     past its points."""

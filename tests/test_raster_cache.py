@@ -49,7 +49,9 @@ def _window(gx: float) -> FocusWindow:
 def test_a_still_view_keeps_its_raster_layer_and_changes_nothing(device: str, extra: dict, blended: bool) -> None:
     """A sequence of frames (the gaze moving, then the camera, then the scene) drawn with
     and without the cache: every frame's image, colour and visibility equal; the raster
-    stages are skipped exactly in the frames whose camera and scene stood still."""
+    stages are skipped exactly in the frames whose camera and scene stood still, and
+    those frames trace fewer primary shadow rays (the pixels the last windows of the
+    view covered keep theirs, ``trace/shadow_cache.py``), the others as many."""
     scene = _scene(blended)
     cam = scene.cameras[0]
     moved_points = dataclasses.replace(scene, points=scene.points + np.float32(0.01))
@@ -76,6 +78,8 @@ def test_a_still_view_keeps_its_raster_layer_and_changes_nothing(device: str, ex
             assert b.stats["raster_cached"] is False
             skipped = [s for s in RASTER_STAGES if s not in a.stats["stages_ms"]]
             assert skipped == (list(RASTER_STAGES) if expect_cached else []), (i, skipped)
+            shadow_rays = a.stats["rays"]["shadow"], b.stats["rays"]["shadow"]
+            assert shadow_rays[0] < shadow_rays[1] if expect_cached else shadow_rays[0] == shadow_rays[1], i
             np.testing.assert_array_equal(a.image, b.image, err_msg=f"frame {i}")
             np.testing.assert_array_equal(a.color, b.color, err_msg=f"frame {i}")
             np.testing.assert_array_equal(a.visibility, b.visibility, err_msg=f"frame {i}")

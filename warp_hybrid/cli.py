@@ -294,9 +294,12 @@ def _add_budget_arguments(p: argparse.ArgumentParser, fps_default: float | None)
     )
 
 
-def _render_settings(args: argparse.Namespace, cache_raster: bool = False) -> RenderSettings:
+def _render_settings(
+    args: argparse.Namespace, cache_raster: bool = False, cache_shadows: bool = True
+) -> RenderSettings:
     """``RenderSettings`` from the shared frame options (``cache_raster``: keep a still
-    view's raster layer across frames, the loop commands' ``--no-raster-cache``)."""
+    view's raster layer across frames, the loop commands' ``--no-raster-cache``;
+    ``cache_shadows``: and its primary hits' shadows, their ``--no-shadow-cache``)."""
     defaults = RenderSettings()
     return RenderSettings(
         width=args.size[0],
@@ -324,6 +327,7 @@ def _render_settings(args: argparse.Namespace, cache_raster: bool = False) -> Re
         spp=args.spp,
         fovea_spp=args.fovea_spp,
         cache_raster=cache_raster,
+        cache_shadows=cache_shadows,
     )
 
 
@@ -349,14 +353,22 @@ def _loop_settings(args: argparse.Namespace, start: float, adaptive: bool, sacca
 
 
 def _add_loop_arguments(p: argparse.ArgumentParser) -> None:
-    """What only the frame loops (replay, view) take: ``--saccade`` (``LoopSettings.saccade``)
-    and ``--no-raster-cache`` (``RenderSettings.cache_raster``)."""
+    """What only the frame loops (replay, view) take: ``--saccade`` (``LoopSettings.saccade``),
+    ``--no-raster-cache`` (``RenderSettings.cache_raster``) and ``--no-shadow-cache``
+    (``RenderSettings.cache_shadows``)."""
     p.add_argument(
         "--no-raster-cache",
         dest="raster_cache",
         action="store_false",
         help="draw the raster layer every frame even when the camera and the scene stand still (default: keep it "
         "and redraw only the traced window; the images are the same)",
+    )
+    p.add_argument(
+        "--no-shadow-cache",
+        dest="shadow_cache",
+        action="store_false",
+        help="trace every window pixel's primary shadow rays every frame (default: in a still view, a pixel an "
+        "earlier window covered keeps the shadows it traced; the images are the same)",
     )
     p.add_argument(
         "--saccade",
@@ -549,7 +561,7 @@ def _cmd_replay(args: argparse.Namespace) -> int:
         {"--out": args.out, "--stats": args.stats, "--summary-json": args.summary_json, "--error-csv": args.error_csv},
         {"--frames-dir": args.frames_dir},
     )
-    settings = _render_settings(args, cache_raster=args.raster_cache)
+    settings = _render_settings(args, cache_raster=args.raster_cache, cache_shadows=args.shadow_cache)
     settings.validate()
     init_warp()
     source = _open_scene(args)
@@ -790,7 +802,7 @@ def _cmd_view(args: argparse.Namespace) -> int:
     init_warp()
     source = _open_scene(args)
     settings = ViewSettings(
-        render=_render_settings(args, cache_raster=args.raster_cache),
+        render=_render_settings(args, cache_raster=args.raster_cache, cache_shadows=args.shadow_cache),
         loop=_loop_settings(args, 0.0, adaptive=args.window is None, saccade=args.saccade),
         camera_path=args.camera,
         gaze=args.gaze,

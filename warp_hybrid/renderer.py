@@ -125,6 +125,10 @@ class RenderSettings:
     whose pixels depend on more than their own surface.  Off by default (every frame pays
     its whole cost, as benchmarks of one frame's cost need); the replay and viewer
     commands turn it on.
+    ``cache_shadows``: with ``cache_raster``, the kept frames also keep the primary hits'
+    shadows the view has traced (``trace.shadow_cache``: a pixel the window covered in an
+    earlier frame of the view sends no primary shadow ray again); the image is the same
+    bit for bit.  On by default; off, every window pixel traces its shadows every frame.
     ``wide_bvh``: the tracer and the ray-cast primaries query 4-wide copies of the BVHs
     (``scene.device.wide_bvh``: the same answers, 2-3x faster on the CPU); None
     (default): on the CPU, not on CUDA, where it is refused; False keeps Warp's own
@@ -157,6 +161,7 @@ class RenderSettings:
     probes: bool = False
     reuse: bool = False
     cache_raster: bool = False
+    cache_shadows: bool = True
     wide_bvh: bool | None = None
 
     @property
@@ -358,7 +363,12 @@ class Renderer:
                 focus = RingedFocusBuilder(self.launcher, s.width, s.height, ring)
             tracer = Tracer(
                 self.launcher,
-                TraceSettings(max_depth=s.max_depth, shadow_samples=s.shadow_samples, wide_bvh=s.wide_bvh),
+                TraceSettings(
+                    max_depth=s.max_depth,
+                    shadow_samples=s.shadow_samples,
+                    wide_bvh=s.wide_bvh,
+                    keep_shadows=s.cache_shadows,
+                ),
             )
             passes.append(focus)
             if s.mode == "full":

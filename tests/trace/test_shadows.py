@@ -10,7 +10,7 @@ import math
 import numpy as np
 import pytest
 import warp as wp
-from trace_kit import ALL_FEATURES, emissive, grid_quad, trace_variants
+from trace_kit import ALL_FEATURES, emissive, pane_scene, trace_variants
 
 from warp_hybrid.core.camera import make_camera_gpu
 from warp_hybrid.core.gbuffer import GBuffer
@@ -85,26 +85,10 @@ def test_soft_shadow_of_a_sphere_light_has_a_penumbra(device: str) -> None:
     assert np.array_equal(again[..., 0], soft)
 
 
-def _pane_scene(opacity: float, thin: bool = True, blended: bool = False):
-    """A red pane (y = 1, thin-walled, 8 x 8 cells; glass, or alpha-blended coverage
-    when ``blended``) between a light straight above and a white floor."""
-    pane = Material(
-        "/pane", diffuse=(0.9, 0.1, 0.08), roughness=0.0, opacity=opacity, thin_walled=thin, alpha_blended=blended
-    )
-    mats = [Material("/floor", diffuse=(0.8, 0.8, 0.8), roughness=0.9), pane]
-    meshes = [
-        quad((-3.0, 0.0, 3.0), (6.0, 0.0, 0.0), (0.0, 0.0, -6.0), 0),
-        grid_quad((-1.0, 1.0, 1.0), (2.0, 0.0, 0.0), (0.0, 0.0, -2.0), 8, 1),
-    ]
-    light = Light(LightKind.DISTANT, "/sun", (2.0, 2.0, 2.0), direction=(0.0, -1.0, 0.0))
-    cam = look_at_camera((0.0, 5.0, 6.0), (0.0, 0.0, 0.0))
-    return make_scene(meshes, mats, lights=[light], cameras=[cam]), cam
-
-
 def _under_the_pane(device: str, opacity: float, blended: bool = False):
     """The pane scene traced, the floor alone traced (its unshadowed reference), the
     floor's pixels and those of them under the pane."""
-    scene, cam = _pane_scene(opacity, blended=blended)
+    scene, cam = pane_scene(opacity, blended=blended)
     lit_scene = make_scene(
         [quad((-3.0, 0.0, 3.0), (6.0, 0.0, 0.0), (0.0, 0.0, -6.0), 0)],
         scene.materials[:1],
@@ -248,7 +232,7 @@ def test_shadow_bvhs_follow_animated_points(device: str, wide_bvh: bool | None, 
     next frame traced by the same tracer (its BVHs are refitted), with the 4-wide copies
     (the CPU's default) and with Warp's own trees; the glass pane's shadow comes from the
     tracer's own two BVHs, the opaque one's from the scene's BVH."""
-    scene, cam = _pane_scene(opacity)
+    scene, cam = pane_scene(opacity)
     ds = DeviceScene(scene, device)
     camera = make_camera_gpu(cam, W, H)
     gb = GBuffer(W, H, device)

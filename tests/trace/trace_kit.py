@@ -12,9 +12,9 @@ from warp_hybrid.core.features import SceneFeatures
 from warp_hybrid.core.gbuffer import GBuffer
 from warp_hybrid.parallel import Launcher
 from warp_hybrid.primary import Rasterizer
-from warp_hybrid.scene.authoring.builders import MeshInput
+from warp_hybrid.scene.authoring.builders import MeshInput, look_at_camera, make_scene, quad
 from warp_hybrid.scene.device import DeviceScene
-from warp_hybrid.scene.model import Camera, Material, Scene
+from warp_hybrid.scene.model import Camera, Light, LightKind, Material, Scene
 from warp_hybrid.timing import StageTimer
 from warp_hybrid.trace import RayCounts, Tracer, TraceSettings
 
@@ -133,3 +133,19 @@ def grid_quad(corner, edge_u, edge_v, n: int, material: int) -> MeshInput:
             a, b = r * (n + 1) + k, r * (n + 1) + k + 1
             idx += [(a, b, b + n + 1), (a, b + n + 1, a + n + 1)]
     return MeshInput(pts.reshape(-1, 3).astype(np.float32), np.asarray(idx, np.int32), material)
+
+
+def pane_scene(opacity: float, thin: bool = True, blended: bool = False) -> tuple[Scene, Camera]:
+    """A red pane (y = 1, thin-walled, 8 x 8 cells; glass, or alpha-blended coverage
+    when ``blended``) between a light straight above and a white floor."""
+    pane = Material(
+        "/pane", diffuse=(0.9, 0.1, 0.08), roughness=0.0, opacity=opacity, thin_walled=thin, alpha_blended=blended
+    )
+    mats = [Material("/floor", diffuse=(0.8, 0.8, 0.8), roughness=0.9), pane]
+    meshes = [
+        quad((-3.0, 0.0, 3.0), (6.0, 0.0, 0.0), (0.0, 0.0, -6.0), 0),
+        grid_quad((-1.0, 1.0, 1.0), (2.0, 0.0, 0.0), (0.0, 0.0, -2.0), 8, 1),
+    ]
+    light = Light(LightKind.DISTANT, "/sun", (2.0, 2.0, 2.0), direction=(0.0, -1.0, 0.0))
+    cam = look_at_camera((0.0, 5.0, 6.0), (0.0, 0.0, 0.0))
+    return make_scene(meshes, mats, lights=[light], cameras=[cam]), cam

@@ -105,6 +105,7 @@ class GuardedTrace(RenderPass):
             b.visibility,
             frame.timer,
             deadline=frame.trace_deadline,
+            reuse_shadows=frame.raster_cached and self.tracer.settings.keep_shadows,
         )
         frame.rays = tally
         if done < len(ends):

@@ -20,7 +20,9 @@ point) gets 0 and no ray.
 ``shadow_kernel`` (stage "trace_shadow") runs over a compacted pixel list (item
 ``start + tid * step``; each item writes only its own pixel and its own row of the
 scratch arrays): per light, the transmittance into ``transmittance[item, light]`` and
-its luminance into the per-light ``visibility`` AOV.
+its luminance into the per-light ``visibility`` AOV; in the kept frames of a still view
+a pixel whose transmittances an earlier frame of the view traced takes them from the
+cache instead (``shadow_cache.py``).
 """
 
 from __future__ import annotations
@@ -41,6 +43,7 @@ from .occluders import OccluderGPU
 from .offset import hit_bound, offset_ray_origin
 from .optics import transmission_tint
 from .rays import MAX_LAYERS, TraceFrame, TraceParams, max3, step_past
+from .shadow_cache import ShadowCacheGPU
 
 
 @wp.struct
@@ -180,16 +183,32 @@ def shadow_kernel(layered: bool, soft: bool, cutouts: bool, wide: bool) -> wp.Ke
     """The primary shadow kernel for one flag tuple (its own Warp module, cached).
 
     Inputs: scene, the call's ``TraceFrame`` (its transmittance rows and count column 0
-    are written), visibility (H, W, L) out, start, step."""
+    are written), visibility (H, W, L) out, the still view's cache (``shadow_cache``:
+    a pixel's entry of the current generation is reused, a traced pixel's stored),
+    start, step."""
     light_transmittance = make_light_func(layered, soft, cutouts, wide)
 
     @wp.kernel(enable_backward=False, module="unique")
-    def trace_shadow(scene: SceneGPU, tf: TraceFrame, visibility: wp.array3d(dtype=wp.float32), start: int, step: int):
+    def trace_shadow(
+        scene: SceneGPU,
+        tf: TraceFrame,
+        visibility: wp.array3d(dtype=wp.float32),
+        cache: ShadowCacheGPU,
+        start: int,
+        step: int,
+    ):
         item = start + wp.tid() * step
         xy = listed_pixel(tf.pixels, item, tf.cam.width, tf.cam.height)
         x = xy[0]
         y = xy[1]
         if x < 0 or tf.gb.triangle_id[y, x] < 0:
+            return
+        if cache.reuse != 0 and cache.stamp[y, x] == cache.generation:
+            for i in range(scene.light_count):
+                kept = cache.transmittance[y, x, i]
+                tf.transmittance[item, i] = kept
+                visibility[y, x, i] = wp.clamp(luma709(kept), 0.0, 1.0)
+            tf.counts[item, 0] = 0
             return
         pixel = y * tf.cam.width + x
         mid = tf.gb.material_id[y, x]
@@ -203,8 +222,10 @@ def shadow_kernel(layered: bool, soft: bool, cutouts: bool, wide: bool) -> wp.Ke
             ls = reach_sample(scene.lights[i], p, n)
             r = light_transmittance(scene, tf.params, tf.occ, i, ls, p, n, ng, bound, transmissive, pixel, 0)
             tf.transmittance[item, i] = r.transmittance
+            cache.transmittance[y, x, i] = r.transmittance
             visibility[y, x, i] = wp.clamp(luma709(r.transmittance), 0.0, 1.0)
             rays += r.rays
+        cache.stamp[y, x] = cache.generation
         tf.counts[item, 0] = rays
 
     return trace_shadow

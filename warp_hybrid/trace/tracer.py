@@ -47,6 +47,7 @@ from ..timing import StageTimer
 from .occluders import Occluders
 from .path import COUNT_COLUMNS, MAX_DEPTH, path_kernel
 from .rays import TraceFrame, TraceParams
+from .shadow_cache import ShadowCache
 from .shadows import shadow_kernel
 from .tally import TALLY_BAND_ITEMS, RayTally, tally_tiles
 from .variant import TraceVariant
@@ -63,12 +64,16 @@ class TraceSettings:
     supersampled frame uses ``sample_seed(seed, k)``.
     ``wide_bvh``: query the 4-wide BVH copies (``wide_bvh.py``; the same answers, faster)
     instead of Warp's own queries; CPU only; None: on the CPU, not on CUDA.
+    ``keep_shadows``: in the kept frames of a still view (``FrameContext.raster_cached``)
+    reuse the primary hits' shadows the view has traced (``shadow_cache.py``; the same
+    image bit for bit, fewer shadow rays).
     """
 
     max_depth: int = 3
     shadow_samples: int = 1
     seed: int = 0
     wide_bvh: bool | None = None
+    keep_shadows: bool = True
 
     def validate(self) -> None:
         """Raise ``RenderSettingsError`` for values the kernels cannot honour."""
@@ -109,6 +114,7 @@ class Tracer(RenderPass):
         self._transmittance: wp.array | None = None
         self._counts: wp.array | None = None
         self._occluders: Occluders | None = None
+        self._shadow_cache = ShadowCache(launcher.device)
         self.tally: RayTally | None = None
 
     def _use_variant(self, variant: TraceVariant) -> None:
@@ -142,6 +148,7 @@ class Tracer(RenderPass):
             b.visibility,
             frame.timer,
             sample_index=frame.sample_index,
+            reuse_shadows=frame.raster_cached and self.settings.keep_shadows,
         )
 
     def begin_frame(self, width: int, height: int) -> RayTally:
@@ -232,6 +239,7 @@ class Tracer(RenderPass):
         visibility_out: wp.array,
         timer: StageTimer,
         sample_index: int = 0,
+        reuse_shadows: bool = False,
     ) -> RayTally:
         """Trace the first ``count`` pixels of ``pixels`` (int32 flat indices row * W + col).
 
@@ -244,10 +252,14 @@ class Tracer(RenderPass):
         The ray counts are added to the frame's tally (``begin_frame`` clears it; the
         first call for a tracer does), which is returned, still on the device.
         ``sample_index``: the sub-frame of a supersampled frame (its soft-shadow seed,
-        ``sample_seed``).  Raises
+        ``sample_seed``).  ``reuse_shadows``: the caller's word that the camera and the
+        G-buffer are the last call's (a kept frame of a still view): the primary hits'
+        shadows traced since then are reused (``shadow_cache.py``).  Raises
         ``ValueError`` on mismatched shapes or a scene needing effects the tracer was not
         built for."""
-        self.trace_rings(scene, camera, gbuffer, pixels, [count], color_out, visibility_out, timer, None, sample_index)
+        self.trace_rings(
+            scene, camera, gbuffer, pixels, [count], color_out, visibility_out, timer, None, sample_index, reuse_shadows
+        )
         assert self.tally is not None
         return self.tally
 
@@ -263,13 +275,14 @@ class Tracer(RenderPass):
         timer: StageTimer,
         deadline: float | None = None,
         sample_index: int = 0,
+        reuse_shadows: bool = False,
     ) -> int:
         """``trace`` for the pixels ``pixels[0:ring_ends[-1]]``, made of the rings
         ``pixels[ring_ends[k - 1]:ring_ends[k]]``, in ring order (module docstring): the
         first ring whole, the others while the clock (``timer.now()``) says a band ends
         by ``deadline`` (None: every ring).  Returns how many rings were traced whole
         (the pixels of a ring cut short are traced, and counted in the tally, but no
-        ring is counted for them)."""
+        ring is counted for them).  ``sample_index``, ``reuse_shadows``: as ``trace``."""
         self.set_scene(scene)
         lights = scene.gpu.light_count
         ends = [int(e) for e in ring_ends]
@@ -292,7 +305,10 @@ class Tracer(RenderPass):
         tf.transmittance = transmittance
         tf.counts = counts
         shadow = self.shadow_kernel if lights > 0 else None
-        shadow_inputs = [scene.gpu, tf, visibility_out]
+        # what the primary hits' shadows depend on besides the view (the caller's word)
+        state = (id(scene), scene.content_version, id(occluders), self.variant, id(gbuffer), sample_index)
+        cache = self._shadow_cache.frame(gbuffer.height, gbuffer.width, lights, state, reuse_shadows)
+        shadow_inputs = [scene.gpu, tf, visibility_out, cache]
         path_inputs = [scene.gpu, scene.ambient, tf, color_out]
         bands = ring_bands(ends, band_count(count, self.launcher.threads, MIN_BAND_ITEMS))
         # per thread: seconds in the shadow and the path kernel, and items traced

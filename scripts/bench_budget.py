@@ -26,6 +26,8 @@ import numpy as np
 from bench_common import BVH_OPTION, ROOT, run_per_scene, wide_bvh_setting
 
 TRACE = ROOT / "scenes" / "traces" / "demo_gaze.csv"
+#: The target frame rate option of the budget benchmarks.
+FPS_OPTION = ("--fps", {"type": float, "default": 15.0, "help": "target frame rate (default 15)"})
 
 
 def measure_scene(
@@ -110,7 +112,7 @@ def main() -> None:
         __file__,
         measure_scene,
         options=[
-            ("--fps", {"type": float, "default": 15.0, "help": "target frame rate (default 15)"}),
+            FPS_OPTION,
             ("--device", {"default": "cpu", "help": "Warp device (cpu or cuda:0)"}),
             (
                 "--raster-cache",

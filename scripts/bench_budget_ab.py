@@ -20,7 +20,7 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
-from bench_budget import TRACE
+from bench_budget import FPS_OPTION, TRACE
 from bench_common import run_per_scene
 
 
@@ -87,7 +87,7 @@ def main() -> None:
         measure_scene,
         options=[
             ("--setting", {"required": True, "help": "a boolean RenderSettings field, e.g. cache_shadows"}),
-            ("--fps", {"type": float, "default": 15.0, "help": "target frame rate (default 15)"}),
+            FPS_OPTION,
             (
                 "--raster-cache",
                 {"choices": ("off", "on"), "default": "on", "help": "keep the still view's raster layer (default on)"},

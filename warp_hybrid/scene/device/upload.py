@@ -3,10 +3,10 @@ and the dome's ambient data.
 
 Built once from a host ``Scene``.  ``SceneGPU`` (``core/scene_gpu.py``) is the single
 struct kernels take.  ``DeviceScene.update`` takes the same scene at another time: it
-copies moved points and normals and *refits* the BVHs instead of rebuilding them
-(the 4-wide copy at once, only where the points moved; Warp's own tree when a pass
-next queries it, ``warp_bvh``), re-uploads lights, materials, textures and the dome when they changed,
-re-analyses the features, and refuses clearly when the topology changed.
+copies moved points and normals and *refits* the BVHs instead of rebuilding them (the
+4-wide copy at once, only where the points moved; Warp's own tree when a pass next
+queries it, ``warp_bvh``), re-uploads lights, materials, textures and the dome when
+they changed, re-analyses the features, and refuses clearly when the topology changed.
 ``geometry_version`` counts point updates and ``materials_version`` material uploads,
 so passes that keep derived data (the tracer's shadow meshes) know when to refit or
 rebuild theirs; ``content_version`` counts the updates that changed anything a frame

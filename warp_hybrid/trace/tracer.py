@@ -305,8 +305,9 @@ class Tracer(RenderPass):
         tf.transmittance = transmittance
         tf.counts = counts
         shadow = self.shadow_kernel if lights > 0 else None
-        # what the primary hits' shadows depend on besides the view (the caller's word)
-        state = (id(scene), scene.content_version, id(occluders), self.variant, id(gbuffer), sample_index)
+        # what the primary hits' shadows depend on besides the view (the caller's word);
+        # the objects themselves, compared by identity (an id could be a freed object's)
+        state = (scene, scene.content_version, occluders, self.variant, gbuffer, sample_index)
         cache = self._shadow_cache.frame(gbuffer.height, gbuffer.width, lights, state, reuse_shadows)
         shadow_inputs = [scene.gpu, tf, visibility_out, cache]
         path_inputs = [scene.gpu, scene.ambient, tf, color_out]

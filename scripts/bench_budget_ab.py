@@ -35,8 +35,8 @@ def measure_scene(
     from warp_hybrid.runtime import init_warp
     from warp_hybrid.scene.open import open_scene_source
 
-    fields = {f.name: f for f in dataclasses.fields(RenderSettings)}
-    if setting not in fields or not isinstance(getattr(RenderSettings(), setting), bool):
+    names = {f.name for f in dataclasses.fields(RenderSettings)}
+    if setting not in names or not isinstance(getattr(RenderSettings(), setting), bool):
         raise SystemExit(f"--setting must name a boolean RenderSettings field, got {setting!r}")
     init_warp()
     budget = 1000.0 / fps

@@ -65,7 +65,7 @@ def warp_queries(
         out[i] = wp.vec2(wp.where(wp.mesh_query_ray_anyhit(mesh, o[i], d[i], max_t[i]), 1.0, 0.0), 0.0)
 
 
-def _rays(gbuffer: object, count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def query_rays(gbuffer: object, count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(origins, hemisphere directions, segment directions, segment lengths) from the
     G-buffer's hit points."""
     pos = gbuffer.channel_numpy("position").reshape(-1, 3)
@@ -97,7 +97,7 @@ def measure_scene(
     init_warp()
     scene = open_scene_source(path).scene_at(None)
     with Renderer(scene, RenderSettings(width=width, height=height, mode="raster")) as renderer:
-        origins, bounce, segment, length = _rays(renderer.render(scene.cameras[0]).gbuffer, rays)
+        origins, bounce, segment, length = query_rays(renderer.render(scene.cameras[0]).gbuffer, rays)
         device_scene = renderer.device_scene
         mesh = device_scene.mesh
         out: dict = {"triangles": scene.triangle_count, "rays": len(origins)}

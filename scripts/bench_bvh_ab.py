@@ -29,7 +29,7 @@ from types import ModuleType
 
 import numpy as np
 import warp as wp
-from bench_bvh import _rays
+from bench_bvh import query_rays
 from bench_common import run_per_scene
 
 ROUNDS = 12
@@ -91,7 +91,7 @@ def measure_scene(path: str, width: int, height: int, repeats: int, against: str
     scene = open_scene_source(path).scene_at(None)
     with Renderer(scene, RenderSettings(width=width, height=height, mode="raster")) as renderer:
         gbuffer = renderer.render(scene.cameras[0]).gbuffer
-        origins, bounce, segment, length = _rays(gbuffer, rays)
+        origins, bounce, segment, length = query_rays(gbuffer, rays)
         pos = gbuffer.channel_numpy("position").reshape(-1, 3)
         nrm = gbuffer.channel_numpy("normal").reshape(-1, 3)
         hit = gbuffer.hit_mask().reshape(-1)

@@ -3,7 +3,7 @@ well-known restatement of it.
 
 Runs on the tone-mapped 8-bit sRGB image (as FXAA does on a display buffer); luma is
 computed from the sRGB values (``0.299 R + 0.587 G + 0.114 B``).  The tone-mapping pass
-writes that luma of every pixel beside the 8-bit image (``luma_of_codes``, from a
+writes that luma of every pixel beside the 8-bit image (``LUMA_OF_CODES_CPP``, from a
 256-entry table per channel that reproduces the per-texel arithmetic bit for bit), so
 the edge tests read one float per texel.  Per pixel:
 
@@ -35,8 +35,8 @@ import math
 import numpy as np
 import warp as wp
 
-EDGE_THRESHOLD = wp.constant(0.166)
-EDGE_THRESHOLD_MIN = wp.constant(0.0833)
+EDGE_THRESHOLD = 0.166
+EDGE_THRESHOLD_MIN = 0.0833
 SUBPIX = wp.constant(0.5)
 #: The edge search's steps (FXAA 3.11 quality preset 39): the first tap 1 px from the
 #: boundary point, then one step per iteration.
@@ -59,11 +59,9 @@ def luma_table() -> np.ndarray:
     return np.stack([np.float32(w) * scaled for w in LUMA_WEIGHTS], axis=-1)
 
 
-@wp.func(inline=True)
-def luma_of_codes(r: int, g: int, b: int, table: wp.array(dtype=wp.vec3)) -> float:
-    """Luma of the 8-bit sRGB codes (r, g, b) from ``luma_table``: its three terms
-    summed in channel order."""
-    return table[r][0] + table[g][1] + table[b][2]
+#: C++ expression: the luma of the 8-bit codes ``r, g, b`` from ``luma_table`` (``lut``, a
+#: ``const wp::vec3*``), its three terms summed in channel order (the tone map writes it).
+LUMA_OF_CODES_CPP = "lut[r][0] + lut[g][1] + lut[b][2]"
 
 
 @wp.func(inline=True)
@@ -236,22 +234,103 @@ def fxaa_edge(
     return _bilinear(img, cx + offset * step, cy)
 
 
+def _float32_cpp(value: float) -> str:
+    """``value`` rounded to float32, as an exact C++ float literal (hexadecimal)."""
+    return f"{float(np.float32(value)).hex()}f"
+
+
+#: Pixels the contrast test takes at a time on the CPU (its flags live on the stack).
+_TEST_CHUNK_CPU = 64
+
+#: C++ statements: the luma range ``rng`` and maximum ``lmax`` of a pixel's luma ``lc``
+#: and its four neighbours' ``lu, ld, ll, lr`` (step 1).
+_RANGE_CPP = """
+const float lmin = wp::min(lc, wp::min(wp::min(lu, ld), wp::min(ll, lr)));
+const float lmax = wp::max(lc, wp::max(wp::max(lu, ld), wp::max(ll, lr)));
+const float rng = lmax - lmin;
+"""
+
+#: C++ statements: whether that range passes the contrast test (``edge``, bool).
+_EDGE_TEST_CPP = (
+    f"const bool edge = rng >= wp::max({_float32_cpp(EDGE_THRESHOLD_MIN)}, lmax * {_float32_cpp(EDGE_THRESHOLD)});"
+)
+
+
+@wp.func_native(_RANGE_CPP + "return rng;")
+def luma_range(lc: float, lu: float, ld: float, ll: float, lr: float) -> float:
+    """Step 1's luma range of the centre ``lc`` and its neighbours up, down, left and right."""
+    ...
+
+
+@wp.func_native(
+    f"""
+#if defined(__CUDA_ARCH__)
+constexpr int CHUNK = 1;
+#else
+constexpr int CHUNK = {_TEST_CHUNK_CPU};
+#endif
+const int h = luma.shape[0];
+const int w = luma.shape[1];
+const float* row = (const float*)((const char*)luma.data + (size_t)y * luma.strides[0]);
+const float* up = (const float*)((const char*)luma.data + (size_t)(y > 0 ? y - 1 : 0) * luma.strides[0]);
+const float* down = (const float*)((const char*)luma.data + (size_t)(y + 1 < h ? y + 1 : h - 1) * luma.strides[0]);
+const wp::uint8* src = (const wp::uint8*)((const char*)img.data + (size_t)y * img.strides[0]);
+wp::uint8* dst = (wp::uint8*)((char*)out.data + (size_t)y * out.strides[0]);
+for (int i = 3 * x0; i < 3 * x1; ++i) dst[i] = src[i];
+wp::int32* list = (wp::int32*)((char*)edges.data + (size_t)y * edges.strides[0]) + x0;
+auto test = [&](int x, int xl, int xr) -> bool {{
+    const float lc = row[x];
+    const float lu = up[x];
+    const float ld = down[x];
+    const float ll = row[xl];
+    const float lr = row[xr];
+    {_RANGE_CPP}
+    {_EDGE_TEST_CPP}
+    return edge;
+}};
+int n = 0;
+if (x0 == 0 && x1 > 0 && test(0, 0, w > 1 ? 1 : 0)) list[n++] = 0;
+const int inner0 = x0 > 1 ? x0 : 1;
+const int inner1 = x1 < w - 1 ? x1 : w - 1;
+bool flags[CHUNK];
+for (int xs = inner0; xs < inner1; xs += CHUNK) {{
+    const int m = inner1 - xs < CHUNK ? inner1 - xs : CHUNK;
+    for (int i = 0; i < m; ++i) flags[i] = test(xs + i, xs + i - 1, xs + i + 1);
+    for (int i = 0; i < m; ++i)
+        if (flags[i]) list[n++] = xs + i;
+}}
+if (w > 1 && x1 == w && x0 <= w - 1 && test(w - 1, w - 2, w - 1)) list[n++] = w - 1;
+return n;
+"""
+)
+def fxaa_edge_pixels(
+    img: wp.array3d(dtype=wp.uint8),
+    luma: wp.array2d(dtype=float),
+    out: wp.array3d(dtype=wp.uint8),
+    edges: wp.array2d(dtype=wp.int32),
+    y: int,
+    x0: int,
+    x1: int,
+) -> int:
+    """Step 1 over pixels ``x0 <= x < x1`` of row ``y``: copies their colour from ``img``
+    to ``out`` and lists, in ``edges[y, x0:]`` in order, the pixels whose luma range
+    (``luma_range``) is at least ``max(EDGE_THRESHOLD_MIN, EDGE_THRESHOLD * max luma)``;
+    returns how many.  A native row loop the compiler vectorises across pixels (the
+    border columns, whose neighbours clamp to the edge, apart)."""
+    ...
+
+
 @wp.func(inline=True)
 def fxaa_pixel(
     img: wp.array3d(dtype=wp.uint8), luma: wp.array2d(dtype=float), out: wp.array3d(dtype=wp.uint8), x: int, y: int
 ):
     """Write the anti-aliased 8-bit colour of pixel (x, y) of ``img`` (luma beside it in
-    ``luma``) into ``out`` if it differs from ``img``'s: ``out`` must start as a copy
-    of ``img`` (pixels below the contrast threshold are left alone)."""
+    ``luma``), one ``fxaa_edge_pixels`` listed (it passed the contrast test), into ``out``."""
     lc = luma[y, x]
     lu = _luma(luma, x, y - 1)
     ld = _luma(luma, x, y + 1)
     ll = _luma(luma, x - 1, y)
     lr = _luma(luma, x + 1, y)
-    lmin = wp.min(lc, wp.min(wp.min(lu, ld), wp.min(ll, lr)))
-    lmax = wp.max(lc, wp.max(wp.max(lu, ld), wp.max(ll, lr)))
-    rng = lmax - lmin
-    if rng >= wp.max(EDGE_THRESHOLD_MIN, lmax * EDGE_THRESHOLD):
-        c = fxaa_edge(img, luma, x, y, lc, lu, ld, ll, lr, rng)
-        for k in range(3):
-            out[y, x, k] = wp.uint8(int(wp.clamp(c[k], 0.0, 1.0) * 255.0 + 0.5))
+    c = fxaa_edge(img, luma, x, y, lc, lu, ld, ll, lr, luma_range(lc, lu, ld, ll, lr))
+    for k in range(3):
+        out[y, x, k] = wp.uint8(int(wp.clamp(c[k], 0.0, 1.0) * 255.0 + 0.5))

@@ -73,12 +73,20 @@ def make_srgb8_encoder(device: wp.context.Device | str) -> Srgb8Encoder:
     return enc
 
 
-@wp.func(inline=True)
+#: C++ statements: the 8-bit code ``code`` (int) of linear float ``x`` from the encoder's
+#: cells ``cells`` (``const wp::vec2*``): see ``srgb_quantize``.
+SRGB_QUANTIZE_CPP = f"""
+const float xc = x > 0.0f ? (x < 1.0f ? x : 1.0f) : 0.0f;
+const wp::vec2 cell = cells[(int)(xc * {float(SRGB_LUT_SIZE)!r}f)];
+const int code = (int)cell[0] + (xc >= cell[1] ? 1 : 0);
+"""
+
+
+@wp.func_native("const wp::vec2* cells = enc.cells.data;" + SRGB_QUANTIZE_CPP + "return code;")
 def srgb_quantize(x: float, enc: Srgb8Encoder) -> int:
     """The 8-bit sRGB code of linear ``x``, exactly ``round(255 * srgb_encode(x))``
     without a ``pow`` or a branch: clamp to [0, 1] (NaN -> 0), take the code at the
     start of x's table cell, plus one if x is past the single step a cell can contain
-    (cells are narrower than any step; the +inf threshold stops code 255)."""
-    xc = wp.where(x > 0.0, wp.where(x < 1.0, x, 1.0), 0.0)
-    cell = enc.cells[int(xc * float(SRGB_LUT_SIZE))]
-    return int(cell[0]) + wp.where(xc >= cell[1], 1, 0)
+    (cells are narrower than any step; the +inf threshold stops code 255).  Written once
+    as ``SRGB_QUANTIZE_CPP``, which the tone map's row loop uses too."""
+    ...

@@ -16,10 +16,10 @@ local types, which Warp resolves from evaluated annotations."""
 import warp as wp
 
 from ..core.constants import luma709
-from .aa import fxaa_pixel, luma_of_codes
-from .color import Srgb8Encoder, srgb_quantize
+from .aa import LUMA_OF_CODES_CPP, fxaa_edge_pixels, fxaa_pixel
+from .color import SRGB_QUANTIZE_CPP, Srgb8Encoder
 from .exposure import LOG_DELTA, Exposure, exposure_from_log_sum, pairwise_sum
-from .tonemap import OPERATORS
+from .tonemap import CHANNEL_CPP
 
 wp.set_module_options({"enable_backward": False})
 
@@ -101,10 +101,77 @@ def fixed_exposure(ev: wp.float64, scale: float, exposure: wp.array(dtype=Exposu
     exposure[0] = fixed
 
 
-def _make_tonemap_kernel(operator: wp.Function, with_luma: bool) -> wp.Kernel:
-    """Exposure (the scale in ``exposure[0]``), ``operator``, then the exact 8-bit sRGB
-    code per channel; with ``with_luma`` also the FXAA luma of the codes
-    (``luma_lut`` = ``aa.luma_table()``)."""
+#: Pixels a tone-map row loop takes at a time on the CPU (its scratch arrays live on the
+#: stack); one on CUDA, where a launch item is one pixel.
+_TONE_CHUNK_CPU = 64
+
+
+def _tonemap_span_cpp(operator: str, with_luma: bool) -> str:
+    """The C++ body of ``_make_tonemap_kernel``'s span function: for pixels ``x0 <= x < x1``
+    of row ``y``, a chunk at a time, the curve on every channel (one flat loop over the
+    chunk's floats, which the compiler vectorises), their 8-bit codes, the bytes, and (with
+    ``with_luma``) the luma.  The arrays must be contiguous (``PostProcess`` checks)."""
+    luma_loop = ""
+    if with_luma:
+        luma_loop = f"""
+    float* luma_out = (float*)((char*)luma.data + (size_t)y * luma.strides[0]) + xs;
+    for (int j = 0; j < n / 3; ++j) {{
+        const int r = codes[3 * j];
+        const int g = codes[3 * j + 1];
+        const int b = codes[3 * j + 2];
+        luma_out[j] = {LUMA_OF_CODES_CPP};
+    }}"""
+    return f"""
+#if defined(__CUDA_ARCH__)
+constexpr int CHUNK = 1;
+#else
+constexpr int CHUNK = {_TONE_CHUNK_CPU};
+#endif
+const float* row = (const float*)((const char*)color.data + (size_t)y * color.strides[0]);
+wp::uint8* bytes = (wp::uint8*)((char*)out.data + (size_t)y * out.strides[0]);
+const wp::vec2* cells = enc.cells.data;
+const wp::vec3* lut = luma_lut.data;
+float tone[3 * CHUNK];
+int codes[3 * CHUNK];
+for (int xs = x0; xs < x1; xs += CHUNK) {{
+    const int n = 3 * (x1 - xs < CHUNK ? x1 - xs : CHUNK);
+    const float* in = row + 3 * xs;
+    for (int i = 0; i < n; ++i) {{
+        const float x = in[i] * scale;
+        {CHANNEL_CPP[operator]}
+        tone[i] = t;
+    }}
+    for (int i = 0; i < n; ++i) {{
+        const float x = tone[i];
+        {SRGB_QUANTIZE_CPP}
+        codes[i] = code;
+    }}
+    for (int i = 0; i < n; ++i) bytes[3 * xs + i] = (wp::uint8)codes[i];{luma_loop}
+}}
+"""
+
+
+def _make_tonemap_kernel(operator: str, with_luma: bool) -> wp.Kernel:
+    """Exposure (the scale in ``exposure[0]``), the curve ``operator`` (``tonemap.CHANNEL_CPP``),
+    then the exact 8-bit sRGB code per channel (``color.SRGB_QUANTIZE_CPP``); with
+    ``with_luma`` also the FXAA luma of the codes (``luma_lut`` = ``aa.luma_table()``).
+    The same bits as ``OPERATORS[operator]`` and ``srgb_quantize`` pixel by pixel, in a
+    native row loop the compiler vectorises across pixels."""
+
+    @wp.func_native(_tonemap_span_cpp(operator, with_luma))
+    def span(
+        color: wp.array2d(dtype=wp.vec3),
+        scale: float,
+        enc: Srgb8Encoder,
+        out: wp.array3d(dtype=wp.uint8),
+        luma_lut: wp.array(dtype=wp.vec3),
+        luma: wp.array2d(dtype=float),
+        y: int,
+        x0: int,
+        x1: int,
+    ):
+        """Pixels ``x0 <= x < x1`` of row ``y`` (``_tonemap_span_cpp``)."""
+        ...
 
     @wp.kernel
     def tonemap_pixels(
@@ -122,25 +189,16 @@ def _make_tonemap_kernel(operator: wp.Function, with_luma: bool) -> wp.Kernel:
     ):
         r, c = wp.tid()
         y = row0 + r * row_step
-        scale = exposure[0].scale
-        for x in range(wp.max(c * cols, x0), wp.min(c * cols + cols, x1)):
-            tone = wp.static(operator)(color[y, x] * scale)
-            red = srgb_quantize(tone[0], encoder)
-            green = srgb_quantize(tone[1], encoder)
-            blue = srgb_quantize(tone[2], encoder)
-            out[y, x, 0] = wp.uint8(red)
-            out[y, x, 1] = wp.uint8(green)
-            out[y, x, 2] = wp.uint8(blue)
-            if wp.static(with_luma):
-                luma[y, x] = luma_of_codes(red, green, blue, luma_lut)
+        first = wp.max(c * cols, x0)
+        stop = wp.min(c * cols + cols, x1)
+        if first < stop:
+            span(color, exposure[0].scale, encoder, out, luma_lut, luma, y, first, stop)
 
     return tonemap_pixels
 
 
 TONEMAP_KERNELS = {
-    (name, with_luma): _make_tonemap_kernel(op, with_luma)
-    for name, op in OPERATORS.items()
-    for with_luma in (False, True)
+    (name, with_luma): _make_tonemap_kernel(name, with_luma) for name in CHANNEL_CPP for with_luma in (False, True)
 }
 
 
@@ -149,6 +207,7 @@ def fxaa_pixels(
     ldr: wp.array3d(dtype=wp.uint8),
     luma: wp.array2d(dtype=float),
     out: wp.array3d(dtype=wp.uint8),
+    edges: wp.array2d(dtype=wp.int32),
     x0: int,
     x1: int,
     row0: int,
@@ -157,10 +216,13 @@ def fxaa_pixels(
 ):
     """FXAA over the 8-bit sRGB image ``ldr`` (its luma in ``luma``) into ``out``, in the
     columns ``x0 <= x < x1`` of the launched rows: each pixel ``ldr``'s colour, the edge
-    pixels' then anti-aliased."""
+    pixels' then anti-aliased (``edges``: (H, W) scratch, where each launch item lists
+    its edge pixels)."""
     r, c = wp.tid()
     y = row0 + r * row_step
-    for x in range(wp.max(c * cols, x0), wp.min(c * cols + cols, x1)):
-        for k in range(3):
-            out[y, x, k] = ldr[y, x, k]
-        fxaa_pixel(ldr, luma, out, x, y)
+    first = wp.max(c * cols, x0)
+    stop = wp.min(c * cols + cols, x1)
+    if first < stop:
+        n = fxaa_edge_pixels(ldr, luma, out, edges, y, first, stop)
+        for j in range(n):
+            fxaa_pixel(ldr, luma, out, edges[y, first + j], y)

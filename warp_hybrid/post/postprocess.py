@@ -79,6 +79,7 @@ class PostProcess(RenderPass):
                 "ldr": wp.zeros((height, width, 3), dtype=wp.uint8, device=dev),
                 "smoothed": wp.zeros((height, width, 3), dtype=wp.uint8, device=dev),
                 "luma": wp.zeros((height, width), dtype=float, device=dev),
+                "edges": wp.zeros((height, width), dtype=wp.int32, device=dev),
                 "row_sum": wp.zeros(height, dtype=wp.float64, device=dev),
                 "row_count": wp.zeros(height, dtype=wp.int32, device=dev),
                 "no_mask": wp.zeros((1, 1), dtype=wp.bool, device=dev),
@@ -176,6 +177,10 @@ class PostProcess(RenderPass):
         any)."""
         if tonemap not in TONEMAPS:
             raise ValueError(f"unknown tone mapping {tonemap!r}; choose one of {', '.join(TONEMAPS)}")
+        if not color.is_contiguous:
+            raise ValueError(
+                "color must be a contiguous (H, W) vec3 array (the tone map reads its rows as flat floats)"
+            )
         h, w = int(color.shape[0]), int(color.shape[1])
         buffers = self._targets(h, w)
         # what this call draws: the same as the last call's, with the same EV (a fixed one,
@@ -210,6 +215,6 @@ class PostProcess(RenderPass):
             smoothed = span_grow(rows, FXAA_REACH_PX, h)
             smoothed_cols = span_grow(cols, FXAA_REACH_PX, w)
             if smoothed != NO_ROWS and smoothed_cols != NO_ROWS:
-                inputs = [buffers["ldr"], buffers["luma"], buffers["smoothed"], *smoothed_cols]
+                inputs = [buffers["ldr"], buffers["luma"], buffers["smoothed"], buffers["edges"], *smoothed_cols]
                 self.launcher.launch_pixels(fxaa_pixels, h, w, inputs, rows=smoothed)
         return buffers["smoothed"]

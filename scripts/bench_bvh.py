@@ -9,7 +9,11 @@ after the first), ``--bvh warp`` Warp's own queries on the scene's ``wp.Mesh``. 
 per query type per repeat, on one thread (a plain ``wp.launch`` on the CPU); medians.
 Prints the tree's nodes and build time and the two query times, and writes each scene's
 answers (face and distance of the closest hits, the any-hit flags) to ``--answers DIR``
-when given, to compare two trees or two checkouts ray for ray.
+when given, to compare two trees or two checkouts ray for ray.  With the 4-wide BVH it
+also times the primary shadow rays toward the scene's first light (every hit pixel in
+row order, as the shadow pass lists them) one at a time and as packets of ``PACKET``
+neighbours (``wide_any_hit_packet``, the shadow pass's query), and checks they answer
+alike.
 
     .venv/bin/python scripts/bench_bvh.py [--scenes staircase classroom] [--rays 100000] [--repeats 5]
         [--bvh wide|warp] [--answers out/bvh_answers] [--json out/bench_bvh.json]
@@ -25,7 +29,14 @@ import numpy as np
 import warp as wp
 from bench_common import run_per_scene
 
-from warp_hybrid.scene.device.wide_bvh import WideBVH, WideBVHGPU, wide_any_hit, wide_closest
+from warp_hybrid.scene.device.wide_bvh import (
+    PACKET,
+    WideBVH,
+    WideBVHGPU,
+    wide_any_hit,
+    wide_any_hit_packet,
+    wide_closest,
+)
 
 
 @wp.kernel
@@ -65,6 +76,57 @@ def warp_queries(
         out[i] = wp.vec2(wp.where(wp.mesh_query_ray_anyhit(mesh, o[i], d[i], max_t[i]), 1.0, 0.0), 0.0)
 
 
+_packet_points = wp.types.matrix(shape=(PACKET, 3), dtype=wp.float32)
+_packet_floats = wp.types.vector(length=PACKET, dtype=wp.float32)
+
+
+@wp.kernel
+def packet_queries(
+    tree: WideBVHGPU,
+    o: wp.array(dtype=wp.vec3),
+    d: wp.array(dtype=wp.vec3),
+    max_t: wp.array(dtype=float),
+    out: wp.array(dtype=wp.vec2),
+):
+    """``wide_queries``' any-hits for rays ``PACKET * tid`` on as one packet."""
+    first = wp.tid() * PACKET
+    po = _packet_points()
+    pd = _packet_points()
+    pt = _packet_floats()
+    for j in range(PACKET):
+        if first + j < o.shape[0]:
+            po[j] = o[first + j]
+            pd[j] = d[first + j]
+            pt[j] = max_t[first + j]
+    bits = wide_any_hit_packet(tree, po, pd, pt)
+    for j in range(PACKET):
+        if first + j < o.shape[0]:
+            out[first + j] = wp.vec2(float((bits >> j) & 1), 0.0)
+
+
+def light_rays(gbuffer: object, light: object) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(origins, directions, lengths) of every hit pixel's shadow ray toward ``light``'s
+    centre (along a distant light), in row order, each leaving on the light's side."""
+    from warp_hybrid.scene.model import LightKind
+
+    pos = gbuffer.channel_numpy("position").reshape(-1, 3).astype(np.float64)
+    nrm = gbuffer.channel_numpy("geometric_normal").reshape(-1, 3).astype(np.float64)
+    hit = gbuffer.hit_mask().reshape(-1)
+    pos, nrm = pos[hit], nrm[hit]
+    if light.kind == LightKind.DISTANT:
+        d = np.broadcast_to(-np.asarray(light.direction, np.float64), pos.shape)
+        d = d / np.linalg.norm(d, axis=1, keepdims=True)
+        length = np.full(len(pos), 1.0e30)
+    else:
+        to = np.asarray(light.position, np.float64) - pos
+        length = np.linalg.norm(to, axis=1)
+        d = to / np.maximum(length, 1.0e-30)[:, None]
+        length = 0.999 * length
+    side = np.where((d * nrm).sum(1, keepdims=True) < 0.0, -nrm, nrm)
+    f32 = np.float32
+    return (pos + 1.0e-3 * side).astype(f32), d.astype(f32), length.astype(f32)
+
+
 def query_rays(gbuffer: object, count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(origins, hemisphere directions, segment directions, segment lengths) from the
     G-buffer's hit points."""
@@ -97,7 +159,8 @@ def measure_scene(
     init_warp()
     scene = open_scene_source(path).scene_at(None)
     with Renderer(scene, RenderSettings(width=width, height=height, mode="raster")) as renderer:
-        origins, bounce, segment, length = query_rays(renderer.render(scene.cameras[0]).gbuffer, rays)
+        gbuffer = renderer.render(scene.cameras[0]).gbuffer
+        origins, bounce, segment, length = query_rays(gbuffer, rays)
         device_scene = renderer.device_scene
         mesh = device_scene.mesh
         out: dict = {"triangles": scene.triangle_count, "rays": len(origins)}
@@ -127,6 +190,29 @@ def measure_scene(
                 times.append((time.perf_counter() - start) * 1.0e9 / len(origins))
             out[f"{kind}_ns"] = statistics.median(times[1:])
             found[kind] = result.numpy().copy()
+        if bvh == "wide" and scene.lights:
+            lo, ld, lt = (
+                wp.array(a, dtype=t) for a, t in zip(light_rays(gbuffer, scene.lights[0]), (wp.vec3, wp.vec3, float))
+            )
+            n = len(lo)
+            lit = wp.zeros(n, dtype=wp.vec2)
+            launches = {
+                "light_one": lambda: wp.launch(wide_queries, n, [first, lo, ld, lt, 0, lit]),
+                "light_packet": lambda: wp.launch(packet_queries, -(-n // PACKET), [first, lo, ld, lt, lit]),
+            }
+            answers_of = {}
+            times = {k: [] for k in launches}
+            for _ in range(repeats + 1):
+                for kind, launch in launches.items():  # alternating
+                    start = time.perf_counter()
+                    launch()
+                    wp.synchronize()
+                    times[kind].append((time.perf_counter() - start) * 1.0e9 / n)
+                    answers_of[kind] = lit.numpy()[:, 0].copy()
+            for kind in launches:
+                out[f"{kind}_ns"] = statistics.median(times[kind][1:])
+            out["light_rays"] = n
+            out["light_differ"] = int((answers_of["light_one"] != answers_of["light_packet"]).sum())
     if answers:
         folder = Path(answers)
         folder.mkdir(parents=True, exist_ok=True)
@@ -147,14 +233,21 @@ def main() -> None:
             ("--answers", {"default": "", "help": "write each scene's answers (.npy) into this folder"}),
         ],
     )
-    print("| scene | triangles | rays | nodes | build ms | closest hit ns | any-hit ns |")
-    print("|---|---|---|---|---|---|---|")
+    print(
+        "| scene | triangles | rays | nodes | build ms | closest hit ns | any-hit ns "
+        "| light rays, one / packet ns (answers differing) |"
+    )
+    print("|---|---|---|---|---|---|---|---|")
     for name, r in results.items():
         nodes = r.get("nodes", "-")
         build = f"{r['build_ms']:.0f}" if "build_ms" in r else "-"
+        light = "-"
+        if "light_one_ns" in r:
+            ratio = r["light_one_ns"] / r["light_packet_ns"]
+            light = f"{r['light_one_ns']:.0f} / {r['light_packet_ns']:.0f} = {ratio:.2f}x ({r['light_differ']})"
         print(
             f"| {name} | {r['triangles']} | {r['rays']} | {nodes} | {build} | {r['closest_ns']:.0f} | "
-            f"{r['any_hit_ns']:.0f} |"
+            f"{r['any_hit_ns']:.0f} | {light} |"
         )
     print(f"\n--bvh {args.bvh}, one thread, medians of {args.repeats}")
     if args.json:

@@ -253,3 +253,44 @@ def test_shadow_bvhs_follow_animated_points(device: str, wide_bvh: bool | None, 
             tinted = floor & (vis.numpy()[..., 0] < 1.0)
             shadows.append(x[tinted].mean())
     assert abs(shadows[0]) < 0.05 and abs(shadows[1] - 1.5) < 0.05
+
+
+@pytest.mark.parametrize("opacity", [0.3, 1.0])
+def test_packets_of_pixels_trace_what_one_pixel_at_a_time_does(opacity: float) -> None:
+    """The CPU's primary shadow kernel traces eight list items' rays toward a light as one
+    packet (``wide_any_hit_packet``): past an opaque pane and through a glass one (the
+    ordered walk after the packet), toward a hard and a soft light (three samples each),
+    over a shuffled list whose length is no multiple of eight, with misses in it, and
+    again from the still view's cache, it gives every pixel the transmittance, the
+    visibility and the ray count that Warp's own queries, one pixel a thread, give."""
+    scene, cam = pane_scene(opacity)
+    bulb = Light(LightKind.SPHERE, "/bulb", (20.0, 20.0, 20.0), position=(0.5, 3.0, 0.5), radius=0.4)
+    scene = dataclasses.replace(scene, lights=[*scene.lights, bulb])
+    ds = DeviceScene(scene, "cpu")
+    camera = make_camera_gpu(cam, W, H)
+    gb = GBuffer(W, H, "cpu")
+    order = np.random.default_rng(3).permutation(W * H).astype(np.int32)
+    count = W * H - 5
+    pixels = wp.array(order, dtype=wp.int32, device="cpu")
+    results = []
+    with Launcher("cpu", threads=2) as launcher:
+        Rasterizer(launcher).render(ds, camera, gb, StageTimer())
+        assert 0 < (gb.triangle_id.numpy() < 0).sum() < W * H  # the list holds misses
+        for wide_bvh in (None, False):
+            tracer = Tracer(launcher, TraceSettings(wide_bvh=wide_bvh, shadow_samples=3, seed=5), ALL_FEATURES)
+            runs = []
+            for reuse in (False, True):
+                color = wp.zeros((H, W), dtype=wp.vec3, device="cpu")
+                vis = wp.full((H, W, 2), value=float("nan"), dtype=wp.float32, device="cpu")
+                tracer.begin_frame(W, H)
+                tally = tracer.trace(ds, camera, gb, pixels, count, color, vis, StageTimer(), reuse_shadows=reuse)
+                runs.append((color.numpy(), vis.numpy(), tally.counts().shadow))
+            results.append(runs)
+    for (color, vis, rays), (color_ref, vis_ref, rays_ref) in zip(*results):
+        np.testing.assert_array_equal(vis, vis_ref)
+        np.testing.assert_array_equal(color, color_ref)
+        assert rays == rays_ref
+    vis = results[0][0][1]
+    assert (vis == 1.0).any() and (((vis > 0.0) & (vis < 1.0)) if opacity < 1.0 else (vis == 0.0)).any()
+    # traced, then the primary hits' rays from the cache (what is left: the reflections' shadow rays)
+    assert results[0][0][2] > count and results[0][1][2] < results[0][0][2] / 4

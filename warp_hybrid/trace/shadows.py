@@ -22,7 +22,13 @@ point) gets 0 and no ray.
 scratch arrays): per light, the transmittance into ``transmittance[item, light]`` and
 its luminance into the per-light ``visibility`` AOV; in the kept frames of a still view
 a pixel whose transmittances an earlier frame of the view traced takes them from the
-cache instead (``shadow_cache.py``).
+cache instead (``shadow_cache.py``).  On the CPU (the 4-wide BVH copies) a kernel thread
+takes ``SHADOW_GROUP`` consecutive items and sends their rays toward each light (each
+sample) through the opaque BVH as one packet (``wide_bvh.wide_any_hit_packet``: a row of
+pixels' rays toward one light visit nearly the same nodes), then each unblocked ray
+through the ordered walk alone: the same rays, the same random streams, the same answers
+as one item a thread (``shadow_launch`` gives either launch's shape).  Secondary hits'
+shadow rays (``make_light_func``, in the path kernel) go one at a time.
 """
 
 from __future__ import annotations
@@ -33,12 +39,12 @@ import warp as wp
 
 from ..core.constants import luma709
 from ..core.pixel_list import listed_pixel
-from ..core.scene_gpu import FLAG_BLENDED, FLAG_CUTOUT, FLAG_TRANSMISSIVE, SceneGPU
+from ..core.scene_gpu import FLAG_BLENDED, FLAG_CUTOUT, FLAG_TRANSMISSIVE, LightGPU, SceneGPU
 from ..lighting.brdf import fresnel_dielectric
 from ..lighting.light_sampling import center_ray_length, light_has_extent, sample_light_ray
 from ..lighting.lights import LightSample, light_reaches, reach_sample
 from ..scene.device.surface import is_cut_away, surface_at
-from ..scene.device.wide_bvh import wide_any_hit, wide_closest
+from ..scene.device.wide_bvh import PACKET, wide_any_hit, wide_any_hit_packet, wide_closest
 from .occluders import OccluderGPU
 from .offset import hit_bound, offset_ray_origin
 from .optics import transmission_tint
@@ -65,25 +71,15 @@ def crossing_transmittance(scene: SceneGPU, face: int, u: float, v: float, d: wp
     return transmission_tint(h) * (1.0 - f)
 
 
-def _make_transmittance_func(layered: bool, cutouts: bool, wide: bool):
-    """``ray_transmittance(scene, occ, o, d, max_t)``: any-hit against the opaque
-    BVH, then (``layered``) the ordered walk through the transmissive, cut-out and
-    emissive surfaces of the special BVH; ``wide``: through their 4-wide copies."""
+def _make_walk_func(cutouts: bool, wide: bool):
+    """``layered_transmittance(scene, occ, o, d, max_t)``: the ordered walk through the
+    transmissive, cut-out and emissive surfaces of the special BVH (``wide``: its 4-wide
+    copy) of a ray the opaque triangles do not block."""
 
     @wp.func
-    def ray_transmittance(scene: SceneGPU, occ: OccluderGPU, o: wp.vec3, d: wp.vec3, max_t: float) -> wp.vec3:
+    def layered_transmittance(scene: SceneGPU, occ: OccluderGPU, o: wp.vec3, d: wp.vec3, max_t: float) -> wp.vec3:
         zero = wp.vec3(0.0, 0.0, 0.0)
         t = wp.vec3(1.0, 1.0, 1.0)
-        if max_t <= 0.0:
-            return t
-        if occ.opaque != wp.uint64(0):
-            if wp.static(wide):
-                if wide_any_hit(occ.opaque_wide, o, d, max_t):
-                    return zero
-            elif wp.mesh_query_ray_anyhit(occ.opaque, o, d, max_t):
-                return zero
-        if wp.static(not layered):
-            return t
         if occ.special == wp.uint64(0):
             return t
         origin = o
@@ -115,7 +111,95 @@ def _make_transmittance_func(layered: bool, cutouts: bool, wide: bool):
                 return t
         return t
 
+    return layered_transmittance
+
+
+def _make_transmittance_func(layered: bool, cutouts: bool, wide: bool):
+    """``ray_transmittance(scene, occ, o, d, max_t)``: any-hit against the opaque
+    BVH, then (``layered``) the ordered walk (``_make_walk_func``); ``wide``: through
+    their 4-wide copies."""
+    layered_transmittance = _make_walk_func(cutouts, wide)
+
+    @wp.func
+    def ray_transmittance(scene: SceneGPU, occ: OccluderGPU, o: wp.vec3, d: wp.vec3, max_t: float) -> wp.vec3:
+        zero = wp.vec3(0.0, 0.0, 0.0)
+        t = wp.vec3(1.0, 1.0, 1.0)
+        if max_t <= 0.0:
+            return t
+        if occ.opaque != wp.uint64(0):
+            if wp.static(wide):
+                if wide_any_hit(occ.opaque_wide, o, d, max_t):
+                    return zero
+            elif wp.mesh_query_ray_anyhit(occ.opaque, o, d, max_t):
+                return zero
+        if wp.static(not layered):
+            return t
+        return layered_transmittance(scene, occ, o, d, max_t)
+
     return ray_transmittance
+
+
+@wp.struct
+class ShadowRay:
+    """One shadow ray toward a light sample: origin, unit direction and length; ``ok``
+    False where the sample leaves on the unlit side (no ray)."""
+
+    o: wp.vec3
+    d: wp.vec3
+    max_t: float
+    ok: bool
+
+
+@wp.func
+def shadow_ray(
+    light: LightGPU,
+    ls: LightSample,
+    p: wp.vec3,
+    ng: wp.vec3,
+    bound: float,
+    transmissive: bool,
+    sampled: bool,
+    r1: float,
+    r2: float,
+) -> ShadowRay:
+    """The shadow ray from ``p`` (geometric normal ``ng``, ``bound`` its ``hit_bound``)
+    toward the light's centre, or with ``sampled`` toward the point ``r1, r2`` of it
+    (``sample_light_ray``); a ray leaving below ``ng`` is none unless the point is
+    ``transmissive`` (it then leaves through the far side)."""
+    r = ShadowRay()
+    r.d = ls.wi
+    length = center_ray_length(light, ls.distance)
+    if sampled:
+        ray = sample_light_ray(light, p, ls.wi, ls.distance, r1, r2)
+        r.d = wp.vec3(ray[0], ray[1], ray[2])
+        length = ray[3]
+    side = ng
+    r.ok = True
+    if wp.dot(r.d, ng) <= 0.0:
+        if not transmissive:
+            r.ok = False
+            return r
+        side = -ng
+    r.o = offset_ray_origin(p, side, bound)
+    r.max_t = length - wp.dot(r.o - p, r.d)
+    return r
+
+
+@wp.func
+def shadow_rng(params: TraceParams, light_index: int, segment: int, pixel: int) -> wp.uint32:
+    """The soft-shadow random stream of a pixel's rays toward one light (``segment``: 0
+    for the primary hit, the path segment for a secondary one)."""
+    return wp.rand_init(params.seed + light_index * 7919 + segment * 104729, pixel)
+
+
+@wp.func
+def shadow_sample_count(params: TraceParams, light: LightGPU, soft: bool) -> int:
+    """Shadow rays toward ``light`` from one point: ``params.shadow_samples`` for a light
+    with an extent in a soft-shadow variant, else one."""
+    if soft:
+        if light_has_extent(light):
+            return params.shadow_samples
+    return 1
 
 
 def make_light_func(layered: bool, soft: bool, cutouts: bool, wide: bool):
@@ -147,29 +231,20 @@ def make_light_func(layered: bool, soft: bool, cutouts: bool, wide: bool):
         if not light_reaches(ls, n):
             return out
         light = scene.lights[light_index]
-        samples = int(1)
-        if wp.static(soft):
-            if light_has_extent(light):
-                samples = params.shadow_samples
-        rng = wp.rand_init(params.seed + light_index * 7919 + segment * 104729, pixel)
+        samples = shadow_sample_count(params, light, soft)
+        rng = shadow_rng(params, light_index, segment, pixel)
         total = wp.vec3(0.0, 0.0, 0.0)
         for _s in range(samples):
-            d = ls.wi
-            length = center_ray_length(light, ls.distance)
+            r1 = float(0.0)
+            r2 = float(0.0)
             if wp.static(soft):
                 if samples > 1:
                     r1 = wp.randf(rng)
                     r2 = wp.randf(rng)
-                    ray = sample_light_ray(light, p, ls.wi, ls.distance, r1, r2)
-                    d = wp.vec3(ray[0], ray[1], ray[2])
-                    length = ray[3]
-            side = ng
-            if wp.dot(d, ng) <= 0.0:
-                if not transmissive:
-                    continue
-                side = -ng
-            o = offset_ray_origin(p, side, bound)
-            total += ray_transmittance(scene, occ, o, d, length - wp.dot(o - p, d))
+            ray = shadow_ray(light, ls, p, ng, bound, transmissive, samples > 1, r1, r2)
+            if not ray.ok:
+                continue
+            total += ray_transmittance(scene, occ, ray.o, ray.d, ray.max_t)
             out.rays += 1
         if out.rays > 0:
             out.transmittance = total / float(out.rays)
@@ -178,14 +253,37 @@ def make_light_func(layered: bool, soft: bool, cutouts: bool, wide: bool):
     return light_transmittance
 
 
+#: Pixels a launch item of the 4-wide variant's primary shadow kernel takes: one packet
+#: of ``wide_any_hit_packet``.
+SHADOW_GROUP = PACKET
+_group_vec3s = wp.types.matrix(shape=(SHADOW_GROUP, 3), dtype=wp.float32)
+_group_floats = wp.types.vector(length=SHADOW_GROUP, dtype=wp.float32)
+_group_ints = wp.types.vector(length=SHADOW_GROUP, dtype=wp.int32)
+_group_states = wp.types.vector(length=SHADOW_GROUP, dtype=wp.uint32)
+
+
+def shadow_launch(wide: bool, first: int, items: int) -> tuple[int, tuple[int, int]]:
+    """The launch dimension and trailing inputs of ``shadow_kernel(..., wide)`` for the list
+    items ``first`` to ``first + items``: one thread an item, ``(start, step)``; for the
+    4-wide variant one thread a group of ``SHADOW_GROUP`` items, ``(start, end)``."""
+    if wide:
+        return -(-items // SHADOW_GROUP), (first, first + items)
+    return items, (first, 1)
+
+
 @functools.lru_cache(maxsize=None)
 def shadow_kernel(layered: bool, soft: bool, cutouts: bool, wide: bool) -> wp.Kernel:
     """The primary shadow kernel for one flag tuple (its own Warp module, cached).
 
     Inputs: scene, the call's ``TraceFrame`` (its transmittance rows and count column 0
     are written), visibility (H, W, L) out, the still view's cache (``shadow_cache``:
-    a pixel's entry of the current generation is reused, a traced pixel's stored),
-    start, step."""
+    a pixel's entry of the current generation is reused, a traced pixel's stored), then
+    the two integers of ``shadow_launch``.  The 4-wide variant (``wide``) traces the
+    opaque any-hits of ``SHADOW_GROUP`` consecutive pixels as one packet per light and
+    sample (``wide_any_hit_packet``: neighbouring pixels' rays toward one light share the
+    nodes they visit), the same answers as one at a time."""
+    if wide:
+        return _packet_shadow_kernel(layered, soft, cutouts)
     light_transmittance = make_light_func(layered, soft, cutouts, wide)
 
     @wp.kernel(enable_backward=False, module="unique")
@@ -203,12 +301,7 @@ def shadow_kernel(layered: bool, soft: bool, cutouts: bool, wide: bool) -> wp.Ke
         y = xy[1]
         if x < 0 or tf.gb.triangle_id[y, x] < 0:
             return
-        if cache.reuse != 0 and cache.stamp[y, x] == cache.generation:
-            for i in range(scene.light_count):
-                kept = cache.transmittance[y, x, i]
-                tf.transmittance[item, i] = kept
-                visibility[y, x, i] = wp.clamp(luma709(kept), 0.0, 1.0)
-            tf.counts[item, 0] = 0
+        if _reuse_cached(scene, tf, visibility, cache, item, x, y):
             return
         pixel = y * tf.cam.width + x
         mid = tf.gb.material_id[y, x]
@@ -221,11 +314,149 @@ def shadow_kernel(layered: bool, soft: bool, cutouts: bool, wide: bool) -> wp.Ke
         for i in range(scene.light_count):
             ls = reach_sample(scene.lights[i], p, n)
             r = light_transmittance(scene, tf.params, tf.occ, i, ls, p, n, ng, bound, transmissive, pixel, 0)
-            tf.transmittance[item, i] = r.transmittance
-            cache.transmittance[y, x, i] = r.transmittance
-            visibility[y, x, i] = wp.clamp(luma709(r.transmittance), 0.0, 1.0)
+            _store(tf, visibility, cache, item, x, y, i, r.transmittance)
             rays += r.rays
         cache.stamp[y, x] = cache.generation
         tf.counts[item, 0] = rays
 
     return trace_shadow
+
+
+@wp.func
+def _reuse_cached(
+    scene: SceneGPU,
+    tf: TraceFrame,
+    visibility: wp.array3d(dtype=wp.float32),
+    cache: ShadowCacheGPU,
+    item: int,
+    x: int,
+    y: int,
+) -> bool:
+    """Where the still view's cache holds pixel (x, y)'s transmittances of this
+    generation: copy them to list item ``item`` and the visibility AOV (no rays)."""
+    if cache.reuse == 0 or cache.stamp[y, x] != cache.generation:
+        return False
+    for i in range(scene.light_count):
+        kept = cache.transmittance[y, x, i]
+        tf.transmittance[item, i] = kept
+        visibility[y, x, i] = wp.clamp(luma709(kept), 0.0, 1.0)
+    tf.counts[item, 0] = 0
+    return True
+
+
+@wp.func
+def _store(
+    tf: TraceFrame,
+    visibility: wp.array3d(dtype=wp.float32),
+    cache: ShadowCacheGPU,
+    item: int,
+    x: int,
+    y: int,
+    light_index: int,
+    transmittance: wp.vec3,
+):
+    """Write list item ``item`` (pixel x, y)'s transmittance toward light ``light_index``
+    to the call's rows, the cache and the visibility AOV."""
+    tf.transmittance[item, light_index] = transmittance
+    cache.transmittance[y, x, light_index] = transmittance
+    visibility[y, x, light_index] = wp.clamp(luma709(transmittance), 0.0, 1.0)
+
+
+def _packet_shadow_kernel(layered: bool, soft: bool, cutouts: bool) -> wp.Kernel:
+    """``shadow_kernel``'s 4-wide variant: per launch item the list items ``start +
+    tid * SHADOW_GROUP`` on (before ``end``); per light and sample their rays
+    (``shadow_ray``, as ``light_transmittance`` builds them, in the same order, from the
+    same random streams) go through the opaque BVH as one packet, then each unblocked
+    ray through the ordered walk (``layered``), so every pixel gets what the one-at-a-time
+    kernel gives it."""
+    layered_transmittance = _make_walk_func(cutouts, True)
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def trace_shadow_packets(
+        scene: SceneGPU,
+        tf: TraceFrame,
+        visibility: wp.array3d(dtype=wp.float32),
+        cache: ShadowCacheGPU,
+        start: int,
+        end: int,
+    ):
+        first = start + wp.tid() * SHADOW_GROUP
+        # the group's pixels: -1 where no ray leaves (past the list, a miss, a cached pixel)
+        xs = _group_ints()
+        ys = _group_ints()
+        rays = _group_ints()
+        for j in range(SHADOW_GROUP):
+            xs[j] = -1
+            item = first + j
+            if item < end:
+                xy = listed_pixel(tf.pixels, item, tf.cam.width, tf.cam.height)
+                if xy[0] >= 0 and tf.gb.triangle_id[xy[1], xy[0]] >= 0:
+                    if not _reuse_cached(scene, tf, visibility, cache, item, xy[0], xy[1]):
+                        xs[j] = xy[0]
+                        ys[j] = xy[1]
+        for i in range(scene.light_count):
+            light = scene.lights[i]
+            samples = shadow_sample_count(tf.params, light, wp.static(soft))
+            total = _group_vec3s()
+            taken = _group_ints()
+            states = _group_states()
+            for j in range(SHADOW_GROUP):
+                if xs[j] >= 0:
+                    states[j] = shadow_rng(tf.params, i, 0, ys[j] * tf.cam.width + xs[j])
+            for _s in range(samples):
+                o = _group_vec3s()
+                d = _group_vec3s()
+                max_t = _group_floats()  # 0: no ray in the packet
+                ok = _group_ints()
+                for j in range(SHADOW_GROUP):
+                    if xs[j] >= 0:
+                        x = xs[j]
+                        y = ys[j]
+                        p = tf.gb.position[y, x]
+                        n = tf.gb.normal[y, x]
+                        ls = reach_sample(light, p, n)
+                        if light_reaches(ls, n):
+                            r1 = float(0.0)
+                            r2 = float(0.0)
+                            if wp.static(soft):
+                                if samples > 1:
+                                    state = states[j]
+                                    r1 = wp.randf(state)
+                                    r2 = wp.randf(state)
+                                    states[j] = state
+                            transmissive = (scene.materials[tf.gb.material_id[y, x]].flags & FLAG_TRANSMISSIVE) != 0
+                            bound = hit_bound(scene, tf.gb.triangle_id[y, x])
+                            ray = shadow_ray(
+                                light, ls, p, tf.gb.geometric_normal[y, x], bound, transmissive, samples > 1, r1, r2
+                            )
+                            if ray.ok:
+                                ok[j] = 1
+                                o[j] = ray.o
+                                d[j] = ray.d
+                                max_t[j] = ray.max_t
+                blocked = int(0)
+                if tf.occ.opaque != wp.uint64(0):
+                    blocked = wide_any_hit_packet(tf.occ.opaque_wide, o, d, max_t)
+                for j in range(SHADOW_GROUP):
+                    if ok[j] != 0:
+                        t = wp.vec3(1.0, 1.0, 1.0)
+                        if max_t[j] > 0.0:
+                            if ((blocked >> j) & 1) != 0:
+                                t = wp.vec3(0.0, 0.0, 0.0)
+                            elif wp.static(layered):
+                                t = layered_transmittance(scene, tf.occ, o[j], d[j], max_t[j])
+                        total[j] = total[j] + t
+                        taken[j] = taken[j] + 1
+            for j in range(SHADOW_GROUP):
+                if xs[j] >= 0:
+                    transmittance = wp.vec3(0.0, 0.0, 0.0)
+                    if taken[j] > 0:
+                        transmittance = total[j] / float(taken[j])
+                    _store(tf, visibility, cache, first + j, xs[j], ys[j], i, transmittance)
+                    rays[j] = rays[j] + taken[j]
+        for j in range(SHADOW_GROUP):
+            if xs[j] >= 0:
+                cache.stamp[ys[j], xs[j]] = cache.generation
+                tf.counts[first + j, 0] = rays[j]
+
+    return trace_shadow_packets

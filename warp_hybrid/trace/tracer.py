@@ -48,7 +48,7 @@ from .occluders import Occluders
 from .path import COUNT_COLUMNS, MAX_DEPTH, path_kernel
 from .rays import TraceFrame, TraceParams
 from .shadow_cache import ShadowCache
-from .shadows import shadow_kernel
+from .shadows import shadow_kernel, shadow_launch
 from .tally import TALLY_BAND_ITEMS, RayTally, tally_tiles
 from .variant import TraceVariant
 
@@ -337,7 +337,8 @@ class Tracer(RenderPass):
             first, items, _ring = bands[k]
             t0 = mark()
             if run_shadow is not None:
-                run_shadow(slot, items, (first, 1), k == 0)
+                dim, tail = shadow_launch(self.variant.wide_bvh, first, items)
+                run_shadow(slot, dim, tail, k == 0)
             t1 = mark()
             run_path(slot, items, (first, 1), k == 0)
             t2 = mark()

@@ -8,7 +8,14 @@ import numpy as np
 import pytest
 import warp as wp
 
-from warp_hybrid.scene.device.wide_bvh import WideBVH, WideBVHGPU, wide_any_hit, wide_closest
+from warp_hybrid.scene.device.wide_bvh import (
+    PACKET,
+    WideBVH,
+    WideBVHGPU,
+    wide_any_hit,
+    wide_any_hit_packet,
+    wide_closest,
+)
 from warp_hybrid.scene.device.wide_bvh_build import MAX_LEAF
 
 CPU = "cpu"
@@ -50,6 +57,46 @@ def _wide_queries(
         hits[i] = wp.vec4(float(q.face), q.t, q.u, q.v)
         normals[i] = q.normal
     blocked[i] = wp.where(wide_any_hit(bvh, o[i], d[i], max_t[i]), 1, 0)
+
+
+_packet_points = wp.types.matrix(shape=(PACKET, 3), dtype=wp.float32)
+_packet_floats = wp.types.vector(length=PACKET, dtype=wp.float32)
+
+
+@wp.kernel
+def _packet_queries(
+    bvh: WideBVHGPU,
+    o: wp.array(dtype=wp.vec3),
+    d: wp.array(dtype=wp.vec3),
+    max_t: wp.array(dtype=float),
+    blocked: wp.array(dtype=wp.int32),
+):
+    """Any-hits of rays ``PACKET * tid`` on as one packet (a last short packet's spare
+    lanes get no ray: max_t 0)."""
+    first = wp.tid() * PACKET
+    n = o.shape[0]
+    po = _packet_points()
+    pd = _packet_points()
+    pt = _packet_floats()
+    for j in range(PACKET):
+        if first + j < n:
+            po[j] = o[first + j]
+            pd[j] = d[first + j]
+            pt[j] = max_t[first + j]
+    bits = wide_any_hit_packet(bvh, po, pd, pt)
+    for j in range(PACKET):
+        if first + j < n:
+            blocked[first + j] = (bits >> j) & 1
+
+
+def _packet_blocked(wide: WideBVH, o: np.ndarray, d: np.ndarray, max_t: np.ndarray) -> np.ndarray:
+    """``wide_any_hit_packet``'s answers for consecutive packets of the rays."""
+    n = len(o)
+    blocked = wp.full(n, -1, dtype=wp.int32, device=CPU)
+    inputs = [wp.array(o, dtype=wp.vec3, device=CPU), wp.array(d, dtype=wp.vec3, device=CPU)]
+    inputs.append(wp.array(max_t, dtype=wp.float32, device=CPU))
+    wp.launch(_packet_queries, -(-n // PACKET), [wide.gpu, *inputs, blocked], device=CPU)
+    return blocked.numpy()
 
 
 def _queries(kernel: wp.Kernel, first: object, o: np.ndarray, d: np.ndarray, max_t: np.ndarray) -> tuple:
@@ -108,6 +155,7 @@ def _assert_same_answers(mesh: wp.Mesh, wide: WideBVH, o: np.ndarray, d: np.ndar
     warp_hit, warp_n, warp_block = _queries(_warp_queries, wp.uint64(mesh.id), o, d, max_t)
     wide_hit, wide_n, wide_block = _queries(_wide_queries, wide.gpu, o, d, max_t)
     np.testing.assert_array_equal(wide_block, warp_block)
+    np.testing.assert_array_equal(_packet_blocked(wide, o, d, max_t), warp_block)
     np.testing.assert_array_equal(wide_hit[:, 0] >= 0, warp_hit[:, 0] >= 0)
     np.testing.assert_array_equal(wide_hit[:, 1], warp_hit[:, 1])  # the nearest distance, always
     same = wide_hit[:, 0] == warp_hit[:, 0]
@@ -133,6 +181,33 @@ def test_queries_answer_as_warps_own() -> None:
     _assert_same_answers(mesh, wide, o, d, max_t)
     warp_hit = _queries(_warp_queries, wp.uint64(mesh.id), o, d, max_t)[0]
     assert 0.2 < (warp_hit[:, 0] >= 0).mean() < 0.9  # the rays hit and miss
+
+
+def test_packets_of_neighbouring_shadow_rays_answer_as_one_at_a_time() -> None:
+    """Packets whose rays share a dominant axis (segments from a patch of points toward
+    one light: the common case, its rays' coordinates permuted once), packets where one
+    ray's axis differs, and packets with lanes that carry no ray (max_t 0, negative or
+    NaN) give each ray the single-ray query's answer (and Warp's)."""
+    rng = np.random.default_rng(13)
+    points, indices = _test_mesh(rng)
+    mesh = _mesh(points, indices)
+    wide = WideBVH(mesh, len(indices))
+    n = 8000
+    xs, ys = np.meshgrid(np.linspace(0.5, 15.5, 100), np.linspace(0.5, 15.5, 80))
+    o = np.stack([xs.ravel(), ys.ravel(), np.full(n, 12.5)], 1).astype(np.float32)
+    light = np.array([8.0, 8.0, 30.0], np.float32)
+    to = light - o
+    max_t = np.linalg.norm(to, axis=1).astype(np.float32)
+    d = (to / max_t[:, None]).astype(np.float32)
+    d[5 :: PACKET * 3] = np.array([1.0, 0.0, 0.0], np.float32)  # one lane of some packets along x
+    max_t[3 :: PACKET * 5] = 0.0
+    max_t[4 :: PACKET * 7] = -1.0
+    max_t[6 :: PACKET * 11] = np.nan
+    blocked = _packet_blocked(wide, o, d, max_t)
+    single = _queries(_wide_queries, wide.gpu, o, d, max_t)[2]
+    np.testing.assert_array_equal(blocked, single)
+    assert 0.2 < single.mean() < 0.9 and not blocked[np.isnan(max_t) | (max_t <= 0.0)].any()
+    _assert_same_answers(mesh, wide, o, d, max_t)
 
 
 def test_a_refit_copies_the_moved_boxes_and_corners() -> None:

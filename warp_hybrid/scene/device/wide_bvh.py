@@ -18,7 +18,9 @@ may be found in the other order.
 
 ``wide_closest`` is ``wp.mesh_query_ray`` (nearest hit, children visited near first,
 a child skipped once its entry distance is past the nearest hit); ``wide_any_hit`` is
-``wp.mesh_query_ray_anyhit``.  The slab test widens its far distance by
+``wp.mesh_query_ray_anyhit``; ``wide_any_hit_packet`` answers ``PACKET`` rays' any-hits
+at once, each ray's answer ``wide_any_hit``'s (the primary shadow pass's query: a row of
+pixels' rays toward one light share the nodes they visit).  The slab test widens its far distance by
 ``1 + 2 gamma(3)`` (pbrt-v4's robust ray-box test), so rounding never culls a box the
 ray touches, and an axis the ray does not move along tests the origin against the slab
 (as Warp's robust test does), so rays along a box's face still enter it.  Measured on
@@ -325,6 +327,178 @@ def _any(
 ) -> bool: ...
 
 
+#: Rays in a packet of ``wide_any_hit_packet``.
+PACKET = 8
+_packet_points = wp.types.matrix(shape=(PACKET, 3), dtype=wp.float32)
+_packet_floats = wp.types.vector(length=PACKET, dtype=wp.float32)
+
+# The any-hit query for a packet of PACKET rays at once: each node's children are tested
+# one box at a time against every ray still unblocked that entered the node (the box
+# test and, in the leaves, Warp's watertight triangle test, lane for lane the same
+# operations as the single-ray query above, so each ray enters the same nodes and gets
+# the same answer), a child taken or pushed with the mask of the rays that enter it.
+# The triangle part permutes each ray's coordinates by its own dominant axis: broadcast
+# once for a packet whose rays share one (the common case), lane by lane otherwise.
+# Every level pushes at most three children, as the single-ray query, so the stack of
+# STACK entries never fills.
+_ANY_PACKET = """
+#if defined(__CUDA_ARCH__)
+return 0;
+#else
+typedef float vPf __attribute__((ext_vector_type(PACKET)));
+typedef int vPi __attribute__((ext_vector_type(PACKET)));
+if (nodes <= 0) return 0;
+const float* nb = node_data.data;
+const int* lv = leaves.data;
+const float* tv = corners.data;
+const float widen = 1.0f + 2.0f * (3.0f * 5.96046448e-08f) / (1.0f - 3.0f * 5.96046448e-08f);
+vPf ox, oy, oz, ix, iy, iz, tmax, okx, oky, okz, Sx, Sy, Sz;
+vPi flat_x, flat_y, flat_z, lane_bit;
+int kxs[PACKET], kys[PACKET], kzs[PACKET];
+unsigned live = 0;
+for (int j = 0; j < PACKET; ++j) {
+    const wp::vec3 oj(o.data[j][0], o.data[j][1], o.data[j][2]);
+    const wp::vec3 dj(d.data[j][0], d.data[j][1], d.data[j][2]);
+    ox[j] = oj[0]; oy[j] = oj[1]; oz[j] = oj[2];
+    const bool fx = wp::abs(dj[0]) < 1.0e-30f, fy = wp::abs(dj[1]) < 1.0e-30f, fz = wp::abs(dj[2]) < 1.0e-30f;
+    flat_x[j] = fx ? -1 : 0; flat_y[j] = fy ? -1 : 0; flat_z[j] = fz ? -1 : 0;
+    ix[j] = fx ? 0.0f : 1.0f / dj[0]; iy[j] = fy ? 0.0f : 1.0f / dj[1]; iz[j] = fz ? 0.0f : 1.0f / dj[2];
+    tmax[j] = max_t[j];
+    lane_bit[j] = 1 << j;
+    int kz = wp::max_dim(dj);
+    int kx = kz + 1;
+    if (kx == 3) kx = 0;
+    int ky = kx + 1;
+    if (ky == 3) ky = 0;
+    if (dj[kz] < 0.0f) { const int tmp = kx; kx = ky; ky = tmp; }
+    kxs[j] = kx; kys[j] = ky; kzs[j] = kz;
+    Sx[j] = dj[kx] / dj[kz]; Sy[j] = dj[ky] / dj[kz]; Sz[j] = 1.0f / dj[kz];
+    okx[j] = oj[kx]; oky[j] = oj[ky]; okz[j] = oj[kz];
+    if (tmax[j] > 0.0f) live |= 1u << j;  // the single-ray query finds nothing for max_t <= 0 (or NaN)
+}
+// the rays' shared dominant axis, if the live rays have one (lanes without a ray ignored)
+const int lead = live != 0 ? __builtin_ctz(live) : 0;
+bool uniform = true;
+for (int j = 0; j < PACKET; ++j)
+    if ((live >> j) & 1u) uniform = uniform && kxs[j] == kxs[lead] && kys[j] == kys[lead] && kzs[j] == kzs[lead];
+const bool any_flat = __builtin_reduce_or(flat_x | flat_y | flat_z) != 0;
+const int none = NO_CHILD;
+unsigned blocked = 0;
+int stack[STACK];
+unsigned stack_m[STACK];
+int sp = 0;
+if (live != 0) { stack[0] = 0; stack_m[0] = live; sp = 1; }
+while (sp > 0) {
+    --sp;
+    int cur = stack[sp];
+    unsigned m = stack_m[sp] & ~blocked;
+    if (m == 0) continue;
+    while (cur >= 0) {  // down the tree: the first child entered taken, the others pushed
+        const float* b = nb + NODE_FLOATS * cur;
+        const int* c = (const int*)(b + CHILD_LANES);
+        int next = none;
+        unsigned next_m = 0;
+        for (int j = 0; j < 4; ++j) {
+            if (c[j] == none) continue;
+            vPf t0x = (b[0 + j] - ox) * ix, t1x = (b[12 + j] - ox) * ix;
+            vPf t0y = (b[4 + j] - oy) * iy, t1y = (b[16 + j] - oy) * iy;
+            vPf t0z = (b[8 + j] - oz) * iz, t1z = (b[20 + j] - oz) * iz;
+            if (any_flat) {
+                const vPi in_x = (b[0 + j] <= ox) & (ox <= b[12 + j]);
+                const vPi in_y = (b[4 + j] <= oy) & (oy <= b[16 + j]);
+                const vPi in_z = (b[8 + j] <= oz) & (oz <= b[20 + j]);
+                t0x = flat_x ? (in_x ? (vPf)-FLT_MAX : (vPf)FLT_MAX) : t0x; t1x = flat_x ? (vPf)FLT_MAX : t1x;
+                t0y = flat_y ? (in_y ? (vPf)-FLT_MAX : (vPf)FLT_MAX) : t0y; t1y = flat_y ? (vPf)FLT_MAX : t1y;
+                t0z = flat_z ? (in_z ? (vPf)-FLT_MAX : (vPf)FLT_MAX) : t0z; t1z = flat_z ? (vPf)FLT_MAX : t1z;
+            }
+            const vPf near_t = __builtin_elementwise_max(
+                __builtin_elementwise_max(__builtin_elementwise_min(t0x, t1x), __builtin_elementwise_min(t0y, t1y)),
+                __builtin_elementwise_max(__builtin_elementwise_min(t0z, t1z), (vPf)0.0f));
+            const vPf far_t = __builtin_elementwise_min(
+                __builtin_elementwise_min(__builtin_elementwise_max(t0x, t1x), __builtin_elementwise_max(t0y, t1y)),
+                __builtin_elementwise_max(t0z, t1z)) * widen;
+            const unsigned em = (unsigned)__builtin_reduce_or((near_t <= far_t) & (near_t <= tmax) & lane_bit) & m;
+            if (em == 0) continue;
+            if (next == none) { next = c[j]; next_m = em; }
+            else { stack[sp] = c[j]; stack_m[sp] = em; ++sp; }
+        }
+        cur = next;
+        m = next_m;
+    }
+    if (cur == none) continue;
+    const int leaf = -cur - 1;
+    const int leaf_end = lv[2 * leaf + 1];
+    for (int g = lv[2 * leaf]; g < leaf_end && (m & ~blocked) != 0; ++g) {
+        const float* t = tv + 9 * g;
+        vPf Ax, Ay, Az, Bx, By, Bz, Cx, Cy, Cz;
+        if (uniform) {
+            const int kx = kxs[lead], ky = kys[lead], kz = kzs[lead];
+            Ax = t[kx] - okx; Ay = t[ky] - oky; Az = t[kz] - okz;
+            Bx = t[3 + kx] - okx; By = t[3 + ky] - oky; Bz = t[3 + kz] - okz;
+            Cx = t[6 + kx] - okx; Cy = t[6 + ky] - oky; Cz = t[6 + kz] - okz;
+        } else {
+            for (int j = 0; j < PACKET; ++j) {
+                Ax[j] = t[kxs[j]] - okx[j]; Ay[j] = t[kys[j]] - oky[j]; Az[j] = t[kzs[j]] - okz[j];
+                Bx[j] = t[3 + kxs[j]] - okx[j]; By[j] = t[3 + kys[j]] - oky[j]; Bz[j] = t[3 + kzs[j]] - okz[j];
+                Cx[j] = t[6 + kxs[j]] - okx[j]; Cy[j] = t[6 + kys[j]] - oky[j]; Cz[j] = t[6 + kzs[j]] - okz[j];
+            }
+        }
+        const vPf ax = Ax - Sx * Az, ay = Ay - Sy * Az;
+        const vPf bx = Bx - Sx * Bz, by = By - Sy * Bz;
+        const vPf cx = Cx - Sx * Cz, cy = Cy - Sy * Cz;
+        auto diff_product = [](vPf a, vPf b, vPf c, vPf e) {
+            const vPf ce = c * e;
+            return __builtin_elementwise_fma(a, b, -ce) + __builtin_elementwise_fma(-c, e, ce);
+        };
+        vPf U = diff_product(cx, by, cy, bx);
+        vPf V = diff_product(ax, cy, ay, cx);
+        vPf W = diff_product(bx, ay, by, ax);
+        const vPi zero = (U == 0.0f) | (V == 0.0f) | (W == 0.0f);
+        if (__builtin_reduce_or(zero)) {
+            for (int j = 0; j < PACKET; ++j) {
+                if (zero[j]) {
+                    U[j] = (float)((double)cx[j] * (double)by[j] - (double)cy[j] * (double)bx[j]);
+                    V[j] = (float)((double)ax[j] * (double)cy[j] - (double)ay[j] * (double)cx[j]);
+                    W[j] = (float)((double)bx[j] * (double)ay[j] - (double)by[j] * (double)ax[j]);
+                }
+            }
+        }
+        const vPi outside = ((U < 0.0f) | (V < 0.0f) | (W < 0.0f)) & ((U > 0.0f) | (V > 0.0f) | (W > 0.0f));
+        const vPf det = U + V + W;
+        const vPf az = Sz * Az, bz = Sz * Bz, cz = Sz * Cz;
+        const vPf T = U * az + V * bz + W * cz;
+        const vPi det_sign = __builtin_bit_cast(vPi, det) & (int)0x80000000;
+        const vPi behind = __builtin_bit_cast(vPf, __builtin_bit_cast(vPi, T) ^ det_sign) < 0.0f;
+        vPi keep = ~outside & (det != 0.0f) & ~behind;
+        if (!__builtin_reduce_or(keep)) continue;
+        const vPf tt = T * (1.0f / det);
+        keep &= (tt < tmax) & (tt >= 0.0f);
+        blocked |= (unsigned)__builtin_reduce_or(keep & lane_bit) & m;
+    }
+}
+return (int)blocked;
+#endif
+"""
+
+
+@wp.func_native(
+    _ANY_PACKET.replace("PACKET", str(PACKET))
+    .replace("STACK", str(STACK_SIZE))
+    .replace("NODE_FLOATS", str(NODE_FLOATS))
+    .replace("CHILD_LANES", str(CHILD_LANES))
+    .replace("NO_CHILD", NO_CHILD_C)
+)
+def _any_packet(
+    node_data: wp.array(dtype=wp.float32),
+    leaves: wp.array(dtype=wp.int32),
+    corners: wp.array(dtype=wp.float32),
+    nodes: int,
+    o: _packet_points,
+    d: _packet_points,
+    max_t: _packet_floats,
+) -> int: ...
+
+
 @wp.struct
 class WideHit:
     """A closest hit as ``wp.mesh_query_ray`` gives it: ``result``, ``face``, ``t``,
@@ -357,6 +531,16 @@ def wide_any_hit(bvh: WideBVHGPU, o: wp.vec3, d: wp.vec3, max_t: float) -> bool:
     """Whether the ray ``o + t d`` hits any triangle at 0 <= t < ``max_t``
     (``wp.mesh_query_ray_anyhit``)."""
     return _any(bvh.node_data, bvh.leaves, bvh.corners, bvh.faces, bvh.nodes, o, d, max_t)
+
+
+@wp.func
+def wide_any_hit_packet(bvh: WideBVHGPU, o: _packet_points, d: _packet_points, max_t: _packet_floats) -> int:
+    """``wide_any_hit`` for ``PACKET`` rays at once (row j: ray ``o[j] + t d[j]``, ``0 <= t <
+    max_t[j]``; a ray of ``max_t <= 0`` is none): bit j set where ray j hits, the same
+    answer as ``wide_any_hit`` ray by ray.  Rays that leave near one another (a row of
+    pixels toward one light) share the nodes they visit, about 2.4x faster than one at a
+    time on the staircase's shadow rays."""
+    return _any_packet(bvh.node_data, bvh.leaves, bvh.corners, bvh.nodes, o, d, max_t)
 
 
 def use_wide_bvh(setting: bool | None, device: wp.context.Device) -> bool:

@@ -256,6 +256,15 @@ _EDGE_TEST_CPP = (
 )
 
 
+def _edge_at(x: str, left: str, right: str) -> str:
+    """C++ statements: ``edge`` for the pixel at column ``x`` of the rows ``row``, ``up``
+    and ``down``, its left and right neighbours at columns ``left`` and ``right``."""
+    return (
+        f"const float lc = row[{x}]; const float lu = up[{x}]; const float ld = down[{x}];"
+        f" const float ll = row[{left}]; const float lr = row[{right}];" + _RANGE_CPP + _EDGE_TEST_CPP
+    )
+
+
 @wp.func_native(_RANGE_CPP + "return rng;")
 def luma_range(lc: float, lu: float, ld: float, ll: float, lr: float) -> float:
     """Step 1's luma range of the centre ``lc`` and its neighbours up, down, left and right."""
@@ -278,28 +287,27 @@ const wp::uint8* src = (const wp::uint8*)((const char*)img.data + (size_t)y * im
 wp::uint8* dst = (wp::uint8*)((char*)out.data + (size_t)y * out.strides[0]);
 for (int i = 3 * x0; i < 3 * x1; ++i) dst[i] = src[i];
 wp::int32* list = (wp::int32*)((char*)edges.data + (size_t)y * edges.strides[0]) + x0;
-auto test = [&](int x, int xl, int xr) -> bool {{
-    const float lc = row[x];
-    const float lu = up[x];
-    const float ld = down[x];
-    const float ll = row[xl];
-    const float lr = row[xr];
-    {_RANGE_CPP}
-    {_EDGE_TEST_CPP}
-    return edge;
-}};
 int n = 0;
-if (x0 == 0 && x1 > 0 && test(0, 0, w > 1 ? 1 : 0)) list[n++] = 0;
+if (x0 == 0 && x1 > 0) {{
+    {_edge_at("0", "0", "w > 1 ? 1 : 0")}
+    if (edge) list[n++] = 0;
+}}
 const int inner0 = x0 > 1 ? x0 : 1;
 const int inner1 = x1 < w - 1 ? x1 : w - 1;
 bool flags[CHUNK];
 for (int xs = inner0; xs < inner1; xs += CHUNK) {{
     const int m = inner1 - xs < CHUNK ? inner1 - xs : CHUNK;
-    for (int i = 0; i < m; ++i) flags[i] = test(xs + i, xs + i - 1, xs + i + 1);
+    for (int i = 0; i < m; ++i) {{
+        {_edge_at("xs + i", "xs + i - 1", "xs + i + 1")}
+        flags[i] = edge;
+    }}
     for (int i = 0; i < m; ++i)
         if (flags[i]) list[n++] = xs + i;
 }}
-if (w > 1 && x1 == w && x0 <= w - 1 && test(w - 1, w - 2, w - 1)) list[n++] = w - 1;
+if (w > 1 && x1 == w && x0 <= w - 1) {{
+    {_edge_at("w - 1", "w - 2", "w - 1")}
+    if (edge) list[n++] = w - 1;
+}}
 return n;
 """
 )

@@ -33,8 +33,8 @@ from warp_hybrid.scene.device.wide_bvh import (
     PACKET,
     WideBVH,
     WideBVHGPU,
+    packet_any_hits,
     wide_any_hit,
-    wide_any_hit_packet,
     wide_closest,
 )
 
@@ -74,34 +74,6 @@ def warp_queries(
         out[i] = wp.vec2(wp.where(q.result, float(q.face), -1.0), q.t)
     else:
         out[i] = wp.vec2(wp.where(wp.mesh_query_ray_anyhit(mesh, o[i], d[i], max_t[i]), 1.0, 0.0), 0.0)
-
-
-_packet_points = wp.types.matrix(shape=(PACKET, 3), dtype=wp.float32)
-_packet_floats = wp.types.vector(length=PACKET, dtype=wp.float32)
-
-
-@wp.kernel
-def packet_queries(
-    tree: WideBVHGPU,
-    o: wp.array(dtype=wp.vec3),
-    d: wp.array(dtype=wp.vec3),
-    max_t: wp.array(dtype=float),
-    out: wp.array(dtype=wp.vec2),
-):
-    """``wide_queries``' any-hits for rays ``PACKET * tid`` on as one packet."""
-    first = wp.tid() * PACKET
-    po = _packet_points()
-    pd = _packet_points()
-    pt = _packet_floats()
-    for j in range(PACKET):
-        if first + j < o.shape[0]:
-            po[j] = o[first + j]
-            pd[j] = d[first + j]
-            pt[j] = max_t[first + j]
-    bits = wide_any_hit_packet(tree, po, pd, pt)
-    for j in range(PACKET):
-        if first + j < o.shape[0]:
-            out[first + j] = wp.vec2(float((bits >> j) & 1), 0.0)
 
 
 def light_rays(gbuffer: object, light: object) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -196,9 +168,10 @@ def measure_scene(
             )
             n = len(lo)
             lit = wp.zeros(n, dtype=wp.vec2)
+            blocked = wp.zeros(n, dtype=wp.int32)
             launches = {
                 "light_one": lambda: wp.launch(wide_queries, n, [first, lo, ld, lt, 0, lit]),
-                "light_packet": lambda: wp.launch(packet_queries, -(-n // PACKET), [first, lo, ld, lt, lit]),
+                "light_packet": lambda: wp.launch(packet_any_hits, -(-n // PACKET), [first, lo, ld, lt, blocked]),
             }
             answers_of = {}
             times = {k: [] for k in launches}
@@ -208,7 +181,9 @@ def measure_scene(
                     launch()
                     wp.synchronize()
                     times[kind].append((time.perf_counter() - start) * 1.0e9 / n)
-                    answers_of[kind] = lit.numpy()[:, 0].copy()
+                    answers_of[kind] = (
+                        lit.numpy()[:, 0].copy() if kind == "light_one" else blocked.numpy().astype(float)
+                    )
             for kind in launches:
                 out[f"{kind}_ns"] = statistics.median(times[kind][1:])
             out["light_rays"] = n

@@ -12,8 +12,8 @@ from warp_hybrid.scene.device.wide_bvh import (
     PACKET,
     WideBVH,
     WideBVHGPU,
+    packet_any_hits,
     wide_any_hit,
-    wide_any_hit_packet,
     wide_closest,
 )
 from warp_hybrid.scene.device.wide_bvh_build import MAX_LEAF
@@ -59,43 +59,13 @@ def _wide_queries(
     blocked[i] = wp.where(wide_any_hit(bvh, o[i], d[i], max_t[i]), 1, 0)
 
 
-_packet_points = wp.types.matrix(shape=(PACKET, 3), dtype=wp.float32)
-_packet_floats = wp.types.vector(length=PACKET, dtype=wp.float32)
-
-
-@wp.kernel
-def _packet_queries(
-    bvh: WideBVHGPU,
-    o: wp.array(dtype=wp.vec3),
-    d: wp.array(dtype=wp.vec3),
-    max_t: wp.array(dtype=float),
-    blocked: wp.array(dtype=wp.int32),
-):
-    """Any-hits of rays ``PACKET * tid`` on as one packet (a last short packet's spare
-    lanes get no ray: max_t 0)."""
-    first = wp.tid() * PACKET
-    n = o.shape[0]
-    po = _packet_points()
-    pd = _packet_points()
-    pt = _packet_floats()
-    for j in range(PACKET):
-        if first + j < n:
-            po[j] = o[first + j]
-            pd[j] = d[first + j]
-            pt[j] = max_t[first + j]
-    bits = wide_any_hit_packet(bvh, po, pd, pt)
-    for j in range(PACKET):
-        if first + j < n:
-            blocked[first + j] = (bits >> j) & 1
-
-
 def _packet_blocked(wide: WideBVH, o: np.ndarray, d: np.ndarray, max_t: np.ndarray) -> np.ndarray:
     """``wide_any_hit_packet``'s answers for consecutive packets of the rays."""
     n = len(o)
     blocked = wp.full(n, -1, dtype=wp.int32, device=CPU)
     inputs = [wp.array(o, dtype=wp.vec3, device=CPU), wp.array(d, dtype=wp.vec3, device=CPU)]
     inputs.append(wp.array(max_t, dtype=wp.float32, device=CPU))
-    wp.launch(_packet_queries, -(-n // PACKET), [wide.gpu, *inputs, blocked], device=CPU)
+    wp.launch(packet_any_hits, -(-n // PACKET), [wide.gpu, *inputs, blocked], device=CPU)
     return blocked.numpy()
 
 

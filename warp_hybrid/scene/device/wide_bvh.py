@@ -543,6 +543,32 @@ def wide_any_hit_packet(bvh: WideBVHGPU, o: _packet_points, d: _packet_points, m
     return _any_packet(bvh.node_data, bvh.leaves, bvh.corners, bvh.nodes, o, d, max_t)
 
 
+@wp.kernel
+def packet_any_hits(
+    bvh: WideBVHGPU,
+    o: wp.array(dtype=wp.vec3),
+    d: wp.array(dtype=wp.vec3),
+    max_t: wp.array(dtype=float),
+    blocked: wp.array(dtype=wp.int32),
+):
+    """The any-hits of a list of rays, rays ``PACKET * tid`` on as one packet
+    (``wide_any_hit_packet``; the last packet's spare lanes carry no ray): ``blocked[i]``
+    1 where ray i hits, else 0.  Launch ``ceil(len / PACKET)`` threads."""
+    first = wp.tid() * PACKET
+    po = _packet_points()
+    pd = _packet_points()
+    pt = _packet_floats()
+    for j in range(PACKET):
+        if first + j < o.shape[0]:
+            po[j] = o[first + j]
+            pd[j] = d[first + j]
+            pt[j] = max_t[first + j]
+    bits = wide_any_hit_packet(bvh, po, pd, pt)
+    for j in range(PACKET):
+        if first + j < o.shape[0]:
+            blocked[first + j] = (bits >> j) & 1
+
+
 def use_wide_bvh(setting: bool | None, device: wp.context.Device) -> bool:
     """Whether passes on ``device`` query the 4-wide copies for the setting
     ``wide_bvh`` (``RenderSettings``/``TraceSettings``): None means on the CPU, not on

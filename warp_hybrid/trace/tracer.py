@@ -7,7 +7,8 @@ proportional to the list's length.  The list is cut into bands shared by the
 launcher's threads (``Launcher.share_until``); a thread runs both kernels on a band, one
 after the other:
 
-* the shadow kernel: shadow rays from the primary points (RGB transmittance per light);
+* the shadow kernel: shadow rays from the primary points (RGB transmittance per light;
+  on the CPU eight neighbouring points' rays as one packet, ``shadows.shadow_launch``);
 * the path kernel: shading of the primary point plus the reflection/refraction path
   with the shadow rays of its secondary hits.
 

@@ -366,9 +366,11 @@ def _packet_shadow_kernel(layered: bool, soft: bool, cutouts: bool) -> wp.Kernel
     """``shadow_kernel``'s 4-wide variant: per launch item the list items ``start +
     tid * SHADOW_GROUP`` on (before ``end``); per light and sample their rays
     (``shadow_ray``, as ``light_transmittance`` builds them, in the same order, from the
-    same random streams) go through the opaque BVH as one packet, then each unblocked
-    ray through the ordered walk (``layered``), so every pixel gets what the one-at-a-time
-    kernel gives it."""
+    same random streams) go through the opaque BVH as one packet, the unblocked ones
+    (``layered``) through the BVH of the transmissive, cut-out and blended surfaces as a
+    second packet, and only the rays that meet one of those go through the ordered walk
+    (whose first query misses for the others: they keep 1), so every pixel gets what the
+    one-at-a-time kernel gives it."""
     layered_transmittance = _make_walk_func(cutouts, True)
 
     @wp.kernel(enable_backward=False, module="unique")
@@ -437,13 +439,23 @@ def _packet_shadow_kernel(layered: bool, soft: bool, cutouts: bool) -> wp.Kernel
                 blocked = int(0)
                 if tf.occ.opaque != wp.uint64(0):
                     blocked = wide_any_hit_packet(tf.occ.opaque_wide, o, d, max_t)
+                # the unblocked rays that meet a transmissive, cut-out or blended surface at
+                # all (the walk's first query finds nothing for the others: they keep 1)
+                crossing = int(0)
+                if wp.static(layered):
+                    if tf.occ.special != wp.uint64(0):
+                        open_t = _group_floats()  # 0 for a blocked ray: none in the packet
+                        for j in range(SHADOW_GROUP):
+                            if ((blocked >> j) & 1) == 0:
+                                open_t[j] = max_t[j]
+                        crossing = wide_any_hit_packet(tf.occ.special_wide, o, d, open_t)
                 for j in range(SHADOW_GROUP):
                     if ok[j] != 0:
                         t = wp.vec3(1.0, 1.0, 1.0)
                         if max_t[j] > 0.0:
                             if ((blocked >> j) & 1) != 0:
                                 t = wp.vec3(0.0, 0.0, 0.0)
-                            elif wp.static(layered):
+                            elif ((crossing >> j) & 1) != 0:
                                 t = layered_transmittance(scene, tf.occ, o[j], d[j], max_t[j])
                         total[j] = total[j] + t
                         taken[j] = taken[j] + 1

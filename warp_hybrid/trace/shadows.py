@@ -153,7 +153,8 @@ class ShadowRay:
 @wp.func
 def shadow_ray(
     light: LightGPU,
-    ls: LightSample,
+    wi: wp.vec3,
+    distance: float,
     p: wp.vec3,
     ng: wp.vec3,
     bound: float,
@@ -163,14 +164,15 @@ def shadow_ray(
     r2: float,
 ) -> ShadowRay:
     """The shadow ray from ``p`` (geometric normal ``ng``, ``bound`` its ``hit_bound``)
-    toward the light's centre, or with ``sampled`` toward the point ``r1, r2`` of it
-    (``sample_light_ray``); a ray leaving below ``ng`` is none unless the point is
-    ``transmissive`` (it then leaves through the far side)."""
+    toward the light's centre (direction ``wi``, ``distance`` away: its ``LightSample``'s),
+    or with ``sampled`` toward the point ``r1, r2`` of it (``sample_light_ray``); a ray
+    leaving below ``ng`` is none unless the point is ``transmissive`` (it then leaves
+    through the far side)."""
     r = ShadowRay()
-    r.d = ls.wi
-    length = center_ray_length(light, ls.distance)
+    r.d = wi
+    length = center_ray_length(light, distance)
     if sampled:
-        ray = sample_light_ray(light, p, ls.wi, ls.distance, r1, r2)
+        ray = sample_light_ray(light, p, wi, distance, r1, r2)
         r.d = wp.vec3(ray[0], ray[1], ray[2])
         length = ray[3]
     side = ng
@@ -241,7 +243,7 @@ def make_light_func(layered: bool, soft: bool, cutouts: bool, wide: bool):
                 if samples > 1:
                     r1 = wp.randf(rng)
                     r2 = wp.randf(rng)
-            ray = shadow_ray(light, ls, p, ng, bound, transmissive, samples > 1, r1, r2)
+            ray = shadow_ray(light, ls.wi, ls.distance, p, ng, bound, transmissive, samples > 1, r1, r2)
             if not ray.ok:
                 continue
             total += ray_transmittance(scene, occ, ray.o, ray.d, ray.max_t)
@@ -396,46 +398,61 @@ def _packet_shadow_kernel(layered: bool, soft: bool, cutouts: bool) -> wp.Kernel
                     if not _reuse_cached(scene, tf, visibility, cache, item, xy[0], xy[1]):
                         xs[j] = xy[0]
                         ys[j] = xy[1]
+        # what each pixel's rays leave from, read once: point, normals, error bound, side
+        ps = _group_vec3s()
+        ns = _group_vec3s()
+        ngs = _group_vec3s()
+        bounds = _group_floats()
+        through = _group_ints()  # 1: transmissive, its rays may leave through the far side
+        for j in range(SHADOW_GROUP):
+            if xs[j] >= 0:
+                ps[j] = tf.gb.position[ys[j], xs[j]]
+                ns[j] = tf.gb.normal[ys[j], xs[j]]
+                ngs[j] = tf.gb.geometric_normal[ys[j], xs[j]]
+                bounds[j] = hit_bound(scene, tf.gb.triangle_id[ys[j], xs[j]])
+                mid = tf.gb.material_id[ys[j], xs[j]]
+                through[j] = wp.where((scene.materials[mid].flags & FLAG_TRANSMISSIVE) != 0, 1, 0)
         for i in range(scene.light_count):
             light = scene.lights[i]
             samples = shadow_sample_count(tf.params, light, wp.static(soft))
             total = _group_vec3s()
             taken = _group_ints()
             states = _group_states()
+            # per pixel, the light's centre as it sees it (no rays where the light cannot reach)
+            wis = _group_vec3s()
+            distances = _group_floats()
+            reaches = _group_ints()
             for j in range(SHADOW_GROUP):
                 if xs[j] >= 0:
                     states[j] = shadow_rng(tf.params, i, 0, ys[j] * tf.cam.width + xs[j])
+                    ls = reach_sample(light, ps[j], ns[j])
+                    if light_reaches(ls, ns[j]):
+                        reaches[j] = 1
+                        wis[j] = ls.wi
+                        distances[j] = ls.distance
             for _s in range(samples):
                 o = _group_vec3s()
                 d = _group_vec3s()
                 max_t = _group_floats()  # 0: no ray in the packet
                 ok = _group_ints()
                 for j in range(SHADOW_GROUP):
-                    if xs[j] >= 0:
-                        x = xs[j]
-                        y = ys[j]
-                        p = tf.gb.position[y, x]
-                        n = tf.gb.normal[y, x]
-                        ls = reach_sample(light, p, n)
-                        if light_reaches(ls, n):
-                            r1 = float(0.0)
-                            r2 = float(0.0)
-                            if wp.static(soft):
-                                if samples > 1:
-                                    state = states[j]
-                                    r1 = wp.randf(state)
-                                    r2 = wp.randf(state)
-                                    states[j] = state
-                            transmissive = (scene.materials[tf.gb.material_id[y, x]].flags & FLAG_TRANSMISSIVE) != 0
-                            bound = hit_bound(scene, tf.gb.triangle_id[y, x])
-                            ray = shadow_ray(
-                                light, ls, p, tf.gb.geometric_normal[y, x], bound, transmissive, samples > 1, r1, r2
-                            )
-                            if ray.ok:
-                                ok[j] = 1
-                                o[j] = ray.o
-                                d[j] = ray.d
-                                max_t[j] = ray.max_t
+                    if reaches[j] != 0:
+                        r1 = float(0.0)
+                        r2 = float(0.0)
+                        if wp.static(soft):
+                            if samples > 1:
+                                state = states[j]
+                                r1 = wp.randf(state)
+                                r2 = wp.randf(state)
+                                states[j] = state
+                        ray = shadow_ray(
+                            light, wis[j], distances[j], ps[j], ngs[j], bounds[j], through[j] != 0, samples > 1, r1, r2
+                        )
+                        if ray.ok:
+                            ok[j] = 1
+                            o[j] = ray.o
+                            d[j] = ray.d
+                            max_t[j] = ray.max_t
                 blocked = int(0)
                 if tf.occ.opaque != wp.uint64(0):
                     blocked = wide_any_hit_packet(tf.occ.opaque_wide, o, d, max_t)

@@ -137,6 +137,69 @@ _ENTER_BY_MASK = """const int* c = (const int*)(b + CHILD_LANES);
         cur = hit_c[0];"""
 
 
+# The pieces of the traversal both queries share, so the single-ray query and the packet
+# test a ray alike: the axis permutation of Warp's watertight test for direction DIR; the
+# entry and exit distances of slabs t0/t1 (vector type VF); and the watertight test's
+# triangle part over the lanes of VF/VI vectors (four triangles of one ray, or one
+# triangle for PACKET rays; lanes below USED are real), each lane Warp's scalar
+# operations, ending with the lanes kept and their distances ``tt`` (a lane-free group
+# ``continue``s its loop).
+#: The slab test's far-distance factor, 1 + 2 gamma(3) (pbrt-v4's robust ray-box test).
+_WIDEN = "1.0f + 2.0f * (3.0f * 5.96046448e-08f) / (1.0f - 3.0f * 5.96046448e-08f)"
+_RAY_AXES = """int kz = wp::max_dim(DIR);
+int kx = kz + 1;
+if (kx == 3) kx = 0;
+int ky = kx + 1;
+if (ky == 3) ky = 0;
+if (DIR[kz] < 0.0f) { const int tmp = kx; kx = ky; ky = tmp; }
+"""
+_SLAB_SPAN = """const VF near_t = __builtin_elementwise_max(
+    __builtin_elementwise_max(__builtin_elementwise_min(t0x, t1x), __builtin_elementwise_min(t0y, t1y)),
+    __builtin_elementwise_max(__builtin_elementwise_min(t0z, t1z), (VF)0.0f));
+const VF far_t = __builtin_elementwise_min(
+    __builtin_elementwise_min(__builtin_elementwise_max(t0x, t1x), __builtin_elementwise_max(t0y, t1y)),
+    __builtin_elementwise_max(t0z, t1z)) * widen;
+"""
+_WATERTIGHT_LANES = """const VF ax = Ax - Sx * Az, ay = Ay - Sy * Az;
+const VF bx = Bx - Sx * Bz, by = By - Sy * Bz;
+const VF cx = Cx - Sx * Cz, cy = Cy - Sy * Cz;
+auto diff_product = [](VF a, VF b, VF c, VF e) {
+    const VF ce = c * e;
+    return __builtin_elementwise_fma(a, b, -ce) + __builtin_elementwise_fma(-c, e, ce);
+};
+VF U = diff_product(cx, by, cy, bx);
+VF V = diff_product(ax, cy, ay, cx);
+VF W = diff_product(bx, ay, by, ax);
+// Warp's fallback where an edge function is exactly zero: the products in double
+const VI zero = (U == 0.0f) | (V == 0.0f) | (W == 0.0f);
+if (__builtin_reduce_or(zero)) {
+    for (int j = 0; j < USED; ++j) {
+        if (zero[j]) {
+            U[j] = (float)((double)cx[j] * (double)by[j] - (double)cy[j] * (double)bx[j]);
+            V[j] = (float)((double)ax[j] * (double)cy[j] - (double)ay[j] * (double)cx[j]);
+            W[j] = (float)((double)bx[j] * (double)ay[j] - (double)by[j] * (double)ax[j]);
+        }
+    }
+}
+const VI outside = ((U < 0.0f) | (V < 0.0f) | (W < 0.0f)) & ((U > 0.0f) | (V > 0.0f) | (W > 0.0f));
+const VF det = U + V + W;
+const VF az = Sz * Az, bz = Sz * Bz, cz = Sz * Cz;
+const VF T = U * az + V * bz + W * cz;
+// wp::xorf(T, wp::sign_mask(det)) < 0: T carrying det's sign bit, compared as a float
+const VI det_sign = __builtin_bit_cast(VI, det) & (int)0x80000000;
+const VI behind = __builtin_bit_cast(VF, __builtin_bit_cast(VI, T) ^ det_sign) < 0.0f;
+VI keep = ~outside & (det != 0.0f) & ~behind;
+if (!__builtin_reduce_or(keep)) continue;
+const VF rcp = 1.0f / det;
+const VF tt = T * rcp;
+"""
+
+
+def _lanes(snippet: str, vf: str, vi: str, used: str) -> str:
+    """``snippet`` with its vector types and its count of real lanes filled in."""
+    return snippet.replace("VF", vf).replace("VI", vi).replace("USED", used)
+
+
 # The traversal shared by both queries (``if (ANY) return HIT;`` is the any-hit's early
 # exit); ``ENTER_CHILDREN`` is one of the two spellings above.
 _TRAVERSE = """
@@ -161,16 +224,11 @@ auto flat_slab = [](v4f& t0, v4f& t1, const float* lo, const float* hi, float or
         t1[j] = FLT_MAX;
     }
 };
-const float widen = 1.0f + 2.0f * (3.0f * 5.96046448e-08f) / (1.0f - 3.0f * 5.96046448e-08f);
+const float widen = WIDEN;
 // Warp's watertight triangle test (wp::intersect_ray_tri_woop), its ray part once per ray
 // (the axis permutation and shear) and its triangle part for four triangles of a leaf at a
 // time, each lane the same operations as Warp's scalar code, so each lane's answer is Warp's.
-int kz = wp::max_dim(d);
-int kx = kz + 1;
-if (kx == 3) kx = 0;
-int ky = kx + 1;
-if (ky == 3) ky = 0;
-if (d[kz] < 0.0f) { const int tmp = kx; kx = ky; ky = tmp; }
+RAY_AXES
 const float Sx = d[kx] / d[kz];
 const float Sy = d[ky] / d[kz];
 const float Sz = 1.0f / d[kz];
@@ -191,12 +249,7 @@ while (true) {
         if (flat_x) flat_slab(t0x, t1x, b + 0, b + 12, o[0]);
         if (flat_y) flat_slab(t0y, t1y, b + 4, b + 16, o[1]);
         if (flat_z) flat_slab(t0z, t1z, b + 8, b + 20, o[2]);
-        const v4f near_t = __builtin_elementwise_max(
-            __builtin_elementwise_max(__builtin_elementwise_min(t0x, t1x), __builtin_elementwise_min(t0y, t1y)),
-            __builtin_elementwise_max(__builtin_elementwise_min(t0z, t1z), (v4f)0.0f));
-        const v4f far_t = __builtin_elementwise_min(
-            __builtin_elementwise_min(__builtin_elementwise_max(t0x, t1x), __builtin_elementwise_max(t0y, t1y)),
-            __builtin_elementwise_max(t0z, t1z)) * widen;
+SLAB_SPAN
         ENTER_CHILDREN
     }
     if (cur != none) {
@@ -211,38 +264,7 @@ while (true) {
                 Bx[j] = t[3 + kx] - o[kx]; By[j] = t[3 + ky] - o[ky]; Bz[j] = t[3 + kz] - o[kz];
                 Cx[j] = t[6 + kx] - o[kx]; Cy[j] = t[6 + ky] - o[ky]; Cz[j] = t[6 + kz] - o[kz];
             }
-            const v4f ax = Ax - Sx * Az, ay = Ay - Sy * Az;
-            const v4f bx = Bx - Sx * Bz, by = By - Sy * Bz;
-            const v4f cx = Cx - Sx * Cz, cy = Cy - Sy * Cz;
-            auto diff_product = [](v4f a, v4f b, v4f c, v4f e) {
-                const v4f ce = c * e;
-                return __builtin_elementwise_fma(a, b, -ce) + __builtin_elementwise_fma(-c, e, ce);
-            };
-            v4f U = diff_product(cx, by, cy, bx);
-            v4f V = diff_product(ax, cy, ay, cx);
-            v4f W = diff_product(bx, ay, by, ax);
-            // Warp's fallback where an edge function is exactly zero: the products in double
-            const v4i zero = (U == 0.0f) | (V == 0.0f) | (W == 0.0f);
-            if (__builtin_reduce_or(zero)) {
-                for (int j = 0; j < n; ++j) {
-                    if (zero[j]) {
-                        U[j] = (float)((double)cx[j] * (double)by[j] - (double)cy[j] * (double)bx[j]);
-                        V[j] = (float)((double)ax[j] * (double)cy[j] - (double)ay[j] * (double)cx[j]);
-                        W[j] = (float)((double)bx[j] * (double)ay[j] - (double)by[j] * (double)ax[j]);
-                    }
-                }
-            }
-            const v4i outside = ((U < 0.0f) | (V < 0.0f) | (W < 0.0f)) & ((U > 0.0f) | (V > 0.0f) | (W > 0.0f));
-            const v4f det = U + V + W;
-            const v4f az = Sz * Az, bz = Sz * Bz, cz = Sz * Cz;
-            const v4f T = U * az + V * bz + W * cz;
-            // wp::xorf(T, wp::sign_mask(det)) < 0: T carrying det's sign bit, compared as a float
-            const v4i det_sign = __builtin_bit_cast(v4i, det) & (int)0x80000000;
-            const v4i behind = __builtin_bit_cast(v4f, __builtin_bit_cast(v4i, T) ^ det_sign) < 0.0f;
-            v4i keep = ~outside & (det != 0.0f) & ~behind;
-            if (!__builtin_reduce_or(keep)) continue;
-            const v4f rcp = 1.0f / det;
-            const v4f tt = T * rcp;
+WATERTIGHT_LANES
             keep &= (tt < best) & (tt >= 0.0f);
             if (!__builtin_reduce_or(keep)) continue;
             for (int j = 0; j < n; ++j) {  // in leaf order, as Warp's loop
@@ -269,7 +291,11 @@ return FOUND;
 def _traversal(enter_children: str) -> str:
     """``_TRAVERSE`` with ``enter_children`` (one of the two spellings) and the constants."""
     return (
-        _TRAVERSE.replace("ENTER_CHILDREN", enter_children)
+        _TRAVERSE.replace("RAY_AXES", _RAY_AXES.replace("DIR", "d"))
+        .replace("WIDEN", _WIDEN)
+        .replace("SLAB_SPAN", _lanes(_SLAB_SPAN, "v4f", "v4i", "4"))
+        .replace("WATERTIGHT_LANES", _lanes(_WATERTIGHT_LANES, "v4f", "v4i", "n"))
+        .replace("ENTER_CHILDREN", enter_children)
         .replace("STACK", str(STACK_SIZE))
         .replace("NODE_FLOATS", str(NODE_FLOATS))
         .replace("CHILD_LANES", str(CHILD_LANES))
@@ -351,7 +377,7 @@ if (nodes <= 0) return 0;
 const float* nb = node_data.data;
 const int* lv = leaves.data;
 const float* tv = corners.data;
-const float widen = 1.0f + 2.0f * (3.0f * 5.96046448e-08f) / (1.0f - 3.0f * 5.96046448e-08f);
+const float widen = WIDEN;
 vPf ox, oy, oz, ix, iy, iz, tmax, okx, oky, okz, Sx, Sy, Sz;
 vPi flat_x, flat_y, flat_z, lane_bit;
 int kxs[PACKET], kys[PACKET], kzs[PACKET];
@@ -365,12 +391,7 @@ for (int j = 0; j < PACKET; ++j) {
     ix[j] = fx ? 0.0f : 1.0f / dj[0]; iy[j] = fy ? 0.0f : 1.0f / dj[1]; iz[j] = fz ? 0.0f : 1.0f / dj[2];
     tmax[j] = max_t[j];
     lane_bit[j] = 1 << j;
-    int kz = wp::max_dim(dj);
-    int kx = kz + 1;
-    if (kx == 3) kx = 0;
-    int ky = kx + 1;
-    if (ky == 3) ky = 0;
-    if (dj[kz] < 0.0f) { const int tmp = kx; kx = ky; ky = tmp; }
+RAY_AXES
     kxs[j] = kx; kys[j] = ky; kzs[j] = kz;
     Sx[j] = dj[kx] / dj[kz]; Sy[j] = dj[ky] / dj[kz]; Sz[j] = 1.0f / dj[kz];
     okx[j] = oj[kx]; oky[j] = oj[ky]; okz[j] = oj[kz];
@@ -411,12 +432,7 @@ while (sp > 0) {
                 t0y = flat_y ? (in_y ? (vPf)-FLT_MAX : (vPf)FLT_MAX) : t0y; t1y = flat_y ? (vPf)FLT_MAX : t1y;
                 t0z = flat_z ? (in_z ? (vPf)-FLT_MAX : (vPf)FLT_MAX) : t0z; t1z = flat_z ? (vPf)FLT_MAX : t1z;
             }
-            const vPf near_t = __builtin_elementwise_max(
-                __builtin_elementwise_max(__builtin_elementwise_min(t0x, t1x), __builtin_elementwise_min(t0y, t1y)),
-                __builtin_elementwise_max(__builtin_elementwise_min(t0z, t1z), (vPf)0.0f));
-            const vPf far_t = __builtin_elementwise_min(
-                __builtin_elementwise_min(__builtin_elementwise_max(t0x, t1x), __builtin_elementwise_max(t0y, t1y)),
-                __builtin_elementwise_max(t0z, t1z)) * widen;
+SLAB_SPAN
             const unsigned em = (unsigned)__builtin_reduce_or((near_t <= far_t) & (near_t <= tmax) & lane_bit) & m;
             if (em == 0) continue;
             if (next == none) { next = c[j]; next_m = em; }
@@ -443,35 +459,7 @@ while (sp > 0) {
                 Cx[j] = t[6 + kxs[j]] - okx[j]; Cy[j] = t[6 + kys[j]] - oky[j]; Cz[j] = t[6 + kzs[j]] - okz[j];
             }
         }
-        const vPf ax = Ax - Sx * Az, ay = Ay - Sy * Az;
-        const vPf bx = Bx - Sx * Bz, by = By - Sy * Bz;
-        const vPf cx = Cx - Sx * Cz, cy = Cy - Sy * Cz;
-        auto diff_product = [](vPf a, vPf b, vPf c, vPf e) {
-            const vPf ce = c * e;
-            return __builtin_elementwise_fma(a, b, -ce) + __builtin_elementwise_fma(-c, e, ce);
-        };
-        vPf U = diff_product(cx, by, cy, bx);
-        vPf V = diff_product(ax, cy, ay, cx);
-        vPf W = diff_product(bx, ay, by, ax);
-        const vPi zero = (U == 0.0f) | (V == 0.0f) | (W == 0.0f);
-        if (__builtin_reduce_or(zero)) {
-            for (int j = 0; j < PACKET; ++j) {
-                if (zero[j]) {
-                    U[j] = (float)((double)cx[j] * (double)by[j] - (double)cy[j] * (double)bx[j]);
-                    V[j] = (float)((double)ax[j] * (double)cy[j] - (double)ay[j] * (double)cx[j]);
-                    W[j] = (float)((double)bx[j] * (double)ay[j] - (double)by[j] * (double)ax[j]);
-                }
-            }
-        }
-        const vPi outside = ((U < 0.0f) | (V < 0.0f) | (W < 0.0f)) & ((U > 0.0f) | (V > 0.0f) | (W > 0.0f));
-        const vPf det = U + V + W;
-        const vPf az = Sz * Az, bz = Sz * Bz, cz = Sz * Cz;
-        const vPf T = U * az + V * bz + W * cz;
-        const vPi det_sign = __builtin_bit_cast(vPi, det) & (int)0x80000000;
-        const vPi behind = __builtin_bit_cast(vPf, __builtin_bit_cast(vPi, T) ^ det_sign) < 0.0f;
-        vPi keep = ~outside & (det != 0.0f) & ~behind;
-        if (!__builtin_reduce_or(keep)) continue;
-        const vPf tt = T * (1.0f / det);
+WATERTIGHT_LANES
         keep &= (tt < tmax) & (tt >= 0.0f);
         blocked |= (unsigned)__builtin_reduce_or(keep & lane_bit) & m;
     }
@@ -482,7 +470,11 @@ return (int)blocked;
 
 
 @wp.func_native(
-    _ANY_PACKET.replace("PACKET", str(PACKET))
+    _ANY_PACKET.replace("RAY_AXES", _RAY_AXES.replace("DIR", "dj"))
+    .replace("WIDEN", _WIDEN)
+    .replace("SLAB_SPAN", _lanes(_SLAB_SPAN, "vPf", "vPi", "PACKET"))
+    .replace("WATERTIGHT_LANES", _lanes(_WATERTIGHT_LANES, "vPf", "vPi", "PACKET"))
+    .replace("PACKET", str(PACKET))
     .replace("STACK", str(STACK_SIZE))
     .replace("NODE_FLOATS", str(NODE_FLOATS))
     .replace("CHILD_LANES", str(CHILD_LANES))

@@ -35,6 +35,8 @@ import math
 import numpy as np
 import warp as wp
 
+from .native_rows import CHUNK_CPP, row_cpp
+
 EDGE_THRESHOLD = 0.166
 EDGE_THRESHOLD_MIN = 0.0833
 SUBPIX = wp.constant(0.5)
@@ -239,9 +241,6 @@ def _float32_cpp(value: float) -> str:
     return f"{float(np.float32(value)).hex()}f"
 
 
-#: Pixels the contrast test takes at a time on the CPU (its flags live on the stack).
-_TEST_CHUNK_CPU = 64
-
 #: C++ statements: the luma range ``rng`` and maximum ``lmax`` of a pixel's luma ``lc``
 #: and its four neighbours' ``lu, ld, ll, lr`` (step 1).
 _RANGE_CPP = """
@@ -272,21 +271,17 @@ def luma_range(lc: float, lu: float, ld: float, ll: float, lr: float) -> float:
 
 
 @wp.func_native(
-    f"""
-#if defined(__CUDA_ARCH__)
-constexpr int CHUNK = 1;
-#else
-constexpr int CHUNK = {_TEST_CHUNK_CPU};
-#endif
+    CHUNK_CPP
+    + f"""
 const int h = luma.shape[0];
 const int w = luma.shape[1];
-const float* row = (const float*)((const char*)luma.data + (size_t)y * luma.strides[0]);
-const float* up = (const float*)((const char*)luma.data + (size_t)(y > 0 ? y - 1 : 0) * luma.strides[0]);
-const float* down = (const float*)((const char*)luma.data + (size_t)(y + 1 < h ? y + 1 : h - 1) * luma.strides[0]);
-const wp::uint8* src = (const wp::uint8*)((const char*)img.data + (size_t)y * img.strides[0]);
-wp::uint8* dst = (wp::uint8*)((char*)out.data + (size_t)y * out.strides[0]);
+const float* row = {row_cpp("luma", "y", "float")};
+const float* up = {row_cpp("luma", "y > 0 ? y - 1 : 0", "float")};
+const float* down = {row_cpp("luma", "y + 1 < h ? y + 1 : h - 1", "float")};
+const wp::uint8* src = {row_cpp("img", "y", "wp::uint8")};
+wp::uint8* dst = {row_cpp("out", "y", "wp::uint8", const=False)};
 for (int i = 3 * x0; i < 3 * x1; ++i) dst[i] = src[i];
-wp::int32* list = (wp::int32*)((char*)edges.data + (size_t)y * edges.strides[0]) + x0;
+wp::int32* list = {row_cpp("edges", "y", "wp::int32", const=False)} + x0;
 int n = 0;
 if (x0 == 0 && x1 > 0) {{
     {_edge_at("0", "0", "w > 1 ? 1 : 0")}

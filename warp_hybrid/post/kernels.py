@@ -19,6 +19,7 @@ from ..core.constants import luma709
 from .aa import LUMA_OF_CODES_CPP, fxaa_edge_pixels, fxaa_pixel
 from .color import SRGB_QUANTIZE_CPP, Srgb8Encoder
 from .exposure import LOG_DELTA, Exposure, exposure_from_log_sum, pairwise_sum
+from .native_rows import CHUNK_CPP, row_cpp
 from .tonemap import CHANNEL_CPP
 
 wp.set_module_options({"enable_backward": False})
@@ -101,11 +102,6 @@ def fixed_exposure(ev: wp.float64, scale: float, exposure: wp.array(dtype=Exposu
     exposure[0] = fixed
 
 
-#: Pixels a tone-map row loop takes at a time on the CPU (its scratch arrays live on the
-#: stack); one on CUDA, where a launch item is one pixel.
-_TONE_CHUNK_CPU = 64
-
-
 def _tonemap_span_cpp(operator: str, with_luma: bool) -> str:
     """The C++ body of ``_make_tonemap_kernel``'s span function: for pixels ``x0 <= x < x1``
     of row ``y``, a chunk at a time, the curve on every channel (one flat loop over the
@@ -114,21 +110,18 @@ def _tonemap_span_cpp(operator: str, with_luma: bool) -> str:
     luma_loop = ""
     if with_luma:
         luma_loop = f"""
-    float* luma_out = (float*)((char*)luma.data + (size_t)y * luma.strides[0]) + xs;
+    float* luma_out = {row_cpp("luma", "y", "float", const=False)} + xs;
     for (int j = 0; j < n / 3; ++j) {{
         const int r = codes[3 * j];
         const int g = codes[3 * j + 1];
         const int b = codes[3 * j + 2];
         luma_out[j] = {LUMA_OF_CODES_CPP};
     }}"""
-    return f"""
-#if defined(__CUDA_ARCH__)
-constexpr int CHUNK = 1;
-#else
-constexpr int CHUNK = {_TONE_CHUNK_CPU};
-#endif
-const float* row = (const float*)((const char*)color.data + (size_t)y * color.strides[0]);
-wp::uint8* bytes = (wp::uint8*)((char*)out.data + (size_t)y * out.strides[0]);
+    return (
+        CHUNK_CPP
+        + f"""
+const float* row = {row_cpp("color", "y", "float")};
+wp::uint8* bytes = {row_cpp("out", "y", "wp::uint8", const=False)};
 const wp::vec2* cells = enc.cells.data;
 const wp::vec3* lut = luma_lut.data;
 float tone[3 * CHUNK];
@@ -149,6 +142,7 @@ for (int xs = x0; xs < x1; xs += CHUNK) {{
     for (int i = 0; i < n; ++i) bytes[3 * xs + i] = (wp::uint8)codes[i];{luma_loop}
 }}
 """
+    )
 
 
 def _make_tonemap_kernel(operator: str, with_luma: bool) -> wp.Kernel:

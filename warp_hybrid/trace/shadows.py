@@ -25,9 +25,10 @@ a pixel whose transmittances an earlier frame of the view traced takes them from
 cache instead (``shadow_cache.py``).  On the CPU (the 4-wide BVH copies) a kernel thread
 takes ``SHADOW_GROUP`` consecutive items and sends their rays toward each light (each
 sample) through the opaque BVH as one packet (``wide_bvh.wide_any_hit_packet``: a row of
-pixels' rays toward one light visit nearly the same nodes), then each unblocked ray
-through the ordered walk alone: the same rays, the same random streams, the same answers
-as one item a thread (``shadow_launch`` gives either launch's shape).  Secondary hits'
+pixels' rays toward one light visit nearly the same nodes), the unblocked ones through the
+special BVH as a second packet, and only the rays that meet it through the ordered walk,
+one at a time: the same rays, the same random streams, the same answers as one item a
+thread (``shadow_launch`` gives either launch's shape).  Secondary hits'
 shadow rays (``make_light_func``, in the path kernel) go one at a time.
 """
 

@@ -9,7 +9,16 @@ import numpy as np
 import pytest
 import warp as wp
 
-from warp_hybrid.parallel import BANDS_PER_THREAD, BandLaunch, Launcher, band, band_count
+from warp_hybrid.parallel import (
+    BANDS_PER_THREAD,
+    ITEM_GROUP,
+    BandLaunch,
+    Launcher,
+    band,
+    band_count,
+    group_launch,
+    item_group,
+)
 
 
 @wp.kernel
@@ -71,6 +80,46 @@ def test_launch_items_covers_each_item_once(device: str, threads: int, count: in
     with Launcher(device, threads) as launcher:
         launcher.launch_items(_count_items, count, [out])
     np.testing.assert_array_equal(out.numpy(), np.ones(count, np.int32))
+
+
+@wp.kernel
+def _count_grouped_items(
+    out: wp.array(dtype=wp.int32), launch_item: wp.array(dtype=wp.int32), start: int, stop: int, group: int
+):
+    """Count the visits of each item; record which launch item (band start + tid) visited it."""
+    first = start + wp.tid() * group
+    for i in range(first, wp.min(first + group, stop)):
+        out[i] = out[i] + 1
+        launch_item[i] = first
+
+
+@pytest.mark.parametrize("threads", [1, 2, 3])
+@pytest.mark.parametrize("count", [1, 15, 16, 17, 100, 9001])
+def test_launch_groups_covers_each_item_once_in_groups(device: str, threads: int, count: int) -> None:
+    """Every item once; on the CPU consecutive items share a launch item, at most
+    ``ITEM_GROUP`` of them (a band's last group may be short), on CUDA one each."""
+    out = wp.zeros(count, dtype=wp.int32, device=device)
+    launch_item = wp.full(count, -1, dtype=wp.int32, device=device)
+    with Launcher(device, threads) as launcher:
+        launcher.launch_groups(_count_grouped_items, count, [out, launch_item])
+    np.testing.assert_array_equal(out.numpy(), np.ones(count, np.int32))
+    firsts = launch_item.numpy()
+    group = item_group(wp.get_device(device))
+    assert group == (1 if wp.get_device(device).is_cuda else ITEM_GROUP)
+    sizes = np.bincount(firsts)[np.unique(firsts)]
+    assert sizes.max() <= group
+    assert np.all(np.diff(firsts) >= 0)  # each group is a run of consecutive items
+    if group > 1 and count >= group * threads * BANDS_PER_THREAD:
+        assert np.median(sizes) == group  # most launch items take a whole group
+
+
+@pytest.mark.parametrize(("first", "items", "group"), [(0, 1, 16), (7, 16, 16), (7, 17, 16), (100, 33, 4), (3, 5, 1)])
+def test_group_launch_covers_the_band_and_no_more(first: int, items: int, group: int) -> None:
+    dim, (start, stop, g) = group_launch(first, items, group)
+    assert (start, stop, g) == (first, first + items, group)
+    covered = [i for tid in range(dim) for i in range(start + tid * g, min(start + (tid + 1) * g, stop))]
+    assert covered == list(range(first, first + items))
+    assert (dim - 1) * group < items  # no launch item without an item
 
 
 @wp.kernel

@@ -1,6 +1,7 @@
 """Every Warp kernel of primary visibility (one compile unit).
 
-* ``camera_points_kernel`` (one thread per vertex): every point in camera space and,
+* ``camera_points_kernel`` (per vertex, grouped: ``parallel.launch_groups``): every
+  point in camera space and,
   in front of the near plane, projected to the screen, so the triangles sharing a
   vertex reuse it (and see bit-identical corners).
 * ``cluster_bounds_kernel`` (one thread per cluster): the bounding box of each run of
@@ -21,7 +22,7 @@
 * ``surface_kernel`` (per pixel): the surface pass both paths share: the material at
   the hit record, textures filtered over the pixel's footprint, into every other
   G-buffer channel.
-* ``listed_primary_kernel`` (one item per entry of a pixel list): the ray-cast hit
+* ``listed_primary_kernel`` (per entry of a pixel list, grouped): the ray-cast hit
   record and the surface pass of only the listed pixels, for sub-samples of the focus
   window (``trace.fovea``); a listed pixel that misses gets the background's hit record.
 
@@ -66,16 +67,18 @@ def camera_points_kernel(
     cam: CameraGPU,
     pts: ProjectedPoints,
     start: int,
-    step: int,
+    stop: int,
+    group: int,
 ):
-    """Points start, start + step, ... in camera space (x right, y up, z = view depth)
-    and, in front of the near plane, on screen (x, y in pixels, view depth): once per
-    vertex rather than once per triangle corner."""
-    i = start + wp.tid() * step
-    c = to_camera(cam, scene.points[i])
-    pts.camera[i] = c
-    if c[2] >= cam.near:
-        pts.screen[i] = project(cam, c)
+    """The points of this launch item's group (``parallel.group_launch``) in camera space
+    (x right, y up, z = view depth) and, in front of the near plane, on screen (x, y in
+    pixels, view depth): once per vertex rather than once per triangle corner."""
+    first = start + wp.tid() * group
+    for i in range(first, wp.min(first + group, stop)):
+        c = to_camera(cam, scene.points[i])
+        pts.camera[i] = c
+        if c[2] >= cam.near:
+            pts.screen[i] = project(cam, c)
 
 
 @wp.kernel
@@ -348,18 +351,20 @@ def listed_primary_kernel(
     gb: GBufferRows,
     pixels: wp.array(dtype=wp.int32),
     start: int,
-    step: int,
+    stop: int,
+    group: int,
 ):
-    """Per listed pixel (item ``start + tid * step``): the ray-cast hit record (the
-    background's on a miss; ``wide`` as in ``raycast_kernel``) and, on a hit, the surface
-    channels; other pixels are untouched."""
-    xy = listed_pixel(pixels, start + wp.tid() * step, cam.width, cam.height)
-    if xy[0] < 0:
-        return
-    i = xy[1] * cam.width + xy[0]
-    _write_miss_record(gb, i)
-    if scene.mesh != wp.uint64(0):
-        _cast(scene, wide, cam, gb, xy[0], xy[1])
-    tri = gb.triangle_id[i]
-    if tri >= 0:
-        _write_surface(gb, i, scene, cam, tri, gb.barycentric[i], pixel_ray(cam, xy[0], xy[1]))
+    """Per listed pixel of this launch item's group (``parallel.group_launch``): the
+    ray-cast hit record (the background's on a miss; ``wide`` as in ``raycast_kernel``)
+    and, on a hit, the surface channels; other pixels are untouched."""
+    first = start + wp.tid() * group
+    for item in range(first, wp.min(first + group, stop)):
+        xy = listed_pixel(pixels, item, cam.width, cam.height)
+        if xy[0] >= 0:
+            i = xy[1] * cam.width + xy[0]
+            _write_miss_record(gb, i)
+            if scene.mesh != wp.uint64(0):
+                _cast(scene, wide, cam, gb, xy[0], xy[1])
+            tri = gb.triangle_id[i]
+            if tri >= 0:
+                _write_surface(gb, i, scene, cam, tri, gb.barycentric[i], pixel_ray(cam, xy[0], xy[1]))

@@ -78,7 +78,7 @@ class FoveaSampler(RenderPass):
         for k, (sx, sy) in enumerate(self.offsets):
             camera = make_camera_gpu(frame.view, w, h, sample=(sx, sy), sample_step=self.step)
             with frame.timer.stage("fovea_primary"):
-                self.launcher.launch_items(
+                self.launcher.launch_groups(
                     primary_kernels.listed_primary_kernel,
                     region.count,
                     [self.scene.gpu, wide, camera, self._gbuffer.rows(), region.pixels],

@@ -1,6 +1,7 @@
 """The path loop: the traced radiance of a pixel (stage "trace_secondary").
 
-``path_kernel(variant)`` runs over a compacted pixel list (item ``start + tid * step``;
+``path_kernel(variant)`` runs over a compacted pixel list (a grouped kernel,
+``parallel.group_launch``: on the CPU a launch item takes a group of consecutive items;
 each item writes only its own pixel and its own row of the scratch arrays).  Per pixel,
 the primary point from the G-buffer is shaded with the transmittances the shadow
 kernel left (``shadows.py``), then an iterative path of reflection and refraction rays
@@ -154,7 +155,8 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
     """The path kernel for one variant (its own Warp module, cached).
 
     Inputs: scene, amb, the call's ``TraceFrame`` (transmittance rows from the shadow
-    kernel; count columns 1-3 are written), color (H, W) out, start, step."""
+    kernel; count columns 1-3 are written), color (H, W) out, then ``start, stop, group``
+    (``parallel.group_launch``)."""
     light_transmittance = make_light_func(
         variant.layered_shadows, variant.soft_shadows, variant.cutouts, variant.wide_bvh
     )
@@ -347,11 +349,10 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
                 )
         return out
 
-    @wp.kernel(enable_backward=False, module="unique")
-    def trace_path(
-        scene: SceneGPU, amb: AmbientGPU, tf: TraceFrame, color: wp.array2d(dtype=wp.vec3), start: int, step: int
-    ):
-        item = start + wp.tid() * step
+    @wp.func(inline=True)
+    def trace_item(scene: SceneGPU, amb: AmbientGPU, tf: TraceFrame, color: wp.array2d(dtype=wp.vec3), item: int):
+        """The traced radiance of list item ``item``'s pixel into ``color``, its ray counts
+        into ``tf.counts``."""
         xy = listed_pixel(tf.pixels, item, tf.cam.width, tf.cam.height)
         x = xy[0]
         y = xy[1]
@@ -443,5 +444,19 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
         tf.counts[item, 1] = shadow_rays
         tf.counts[item, 2] = reflect_rays
         tf.counts[item, 3] = refract_rays
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def trace_path(
+        scene: SceneGPU,
+        amb: AmbientGPU,
+        tf: TraceFrame,
+        color: wp.array2d(dtype=wp.vec3),
+        start: int,
+        stop: int,
+        group: int,
+    ):
+        first = start + wp.tid() * group
+        for item in range(first, wp.min(first + group, stop)):
+            trace_item(scene, amb, tf, color, item)
 
     return trace_path

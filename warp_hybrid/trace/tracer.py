@@ -10,7 +10,8 @@ after the other:
 * the shadow kernel: shadow rays from the primary points (RGB transmittance per light;
   on the CPU eight neighbouring points' rays as one packet, ``shadows.shadow_launch``);
 * the path kernel: shading of the primary point plus the reflection/refraction path
-  with the shadow rays of its secondary hits.
+  with the shadow rays of its secondary hits (on the CPU a launch item takes
+  ``parallel.ITEM_GROUP`` consecutive points, ``parallel.group_launch``).
 
 The call's time is split between the stages "trace_shadow" and "trace_secondary" in
 proportion to the time the threads spent in each kernel (one pass over the list, so a
@@ -41,7 +42,7 @@ from ..core.features import SceneFeatures
 from ..core.gbuffer import GBuffer
 from ..core.passes import FrameContext, RenderPass
 from ..errors import RenderSettingsError
-from ..parallel import MIN_BAND_ITEMS, BandLaunch, Launcher, band, band_count
+from ..parallel import MIN_BAND_ITEMS, BandLaunch, Launcher, band, band_count, group_launch, item_group
 from ..scene.device import DeviceScene
 from ..scene.device.wide_bvh import use_wide_bvh
 from ..timing import StageTimer
@@ -333,6 +334,7 @@ class Tracer(RenderPass):
 
         run_shadow = BandLaunch(self.launcher, shadow, shadow_inputs) if shadow is not None else None
         run_path = BandLaunch(self.launcher, self.path_kernel, path_inputs)
+        group = item_group(self.launcher.device)
 
         def job(k: int, slot: int) -> None:
             first, items, _ring = bands[k]
@@ -341,7 +343,8 @@ class Tracer(RenderPass):
                 dim, tail = shadow_launch(self.variant.wide_bvh, first, items)
                 run_shadow(slot, dim, tail, k == 0)
             t1 = mark()
-            run_path(slot, items, (first, 1), k == 0)
+            dim, tail = group_launch(first, items, group)
+            run_path(slot, dim, tail, k == 0)
             t2 = mark()
             shadow_s[slot] += t1 - t0
             path_s[slot] += t2 - t1

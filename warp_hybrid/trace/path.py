@@ -145,6 +145,15 @@ def make_ray(origin: wp.vec3, direction: wp.vec3, weight: wp.vec3, depth: int, k
 
 
 @wp.func
+def leaving_origin(ray: Ray, ng: wp.vec3, bound: float) -> wp.vec3:
+    """Where ``ray``, spawned at ``ray.origin`` on a surface with geometric normal ``ng``
+    (facing against the incoming ray) and ``offset.hit_bound`` ``bound``, leaves it:
+    moved off along ``ng`` for a reflection, along ``-ng`` for a ray that goes on
+    through (refraction, transmission, an alpha-blended pass-through)."""
+    return offset_ray_origin(ray.origin, wp.where(ray.kind == KIND_REFLECT, ng, -ng), bound)
+
+
+@wp.func
 def no_ray() -> Ray:
     """The empty ``Ray`` (``KIND_NONE``)."""
     return make_ray(wp.vec3(0.0), wp.vec3(0.0), wp.vec3(0.0), 0, KIND_NONE, 0.0)
@@ -209,11 +218,13 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
         cone_length: float,
         can_push: bool,
     ) -> HitShading:
-        """Shade hit ``h`` (on a triangle whose ``offset.hit_bound`` is ``bound``) seen
-        along ``d`` with path ``weight`` at ``depth``, ``cone_length`` from the camera
-        along the path (what its rays carry on); segment 0 (the primary point) takes
-        the shadow kernel's transmittances.  Two branches split only when ``can_push``
-        (room on the stack); otherwise the reflection goes on."""
+        """Shade hit ``h`` seen along ``d`` with path ``weight`` at ``depth``,
+        ``cone_length`` from the camera along the path (what its rays carry on); segment
+        0 (the primary point) takes the shadow kernel's transmittances, a secondary hit
+        traces its shadow rays from its triangle's ``offset.hit_bound`` ``bound``.  The
+        continuation rays start at ``h.position`` itself: the caller moves them off the
+        surface (``leaving_origin``).  Two branches split only when ``can_push`` (room on
+        the stack); otherwise the reflection goes on."""
         zero = wp.vec3(0.0, 0.0, 0.0)
         out = HitShading()
         out.shadow_rays = 0
@@ -330,23 +341,15 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
             if a_ok and b_ok and can_push:
                 # follow the heavier branch, push the other
                 if max3(b_w) > max3(a_w):
-                    out.pushed = make_ray(
-                        offset_ray_origin(h.position, ng, bound), a_d, a_w, depth + 1, KIND_REFLECT, cone_length
-                    )
+                    out.pushed = make_ray(h.position, a_d, a_w, depth + 1, KIND_REFLECT, cone_length)
                     a_ok = False
                 else:
-                    out.pushed = make_ray(
-                        offset_ray_origin(h.position, -ng, bound), b_d, b_w, depth + 1, KIND_REFRACT, cone_length
-                    )
+                    out.pushed = make_ray(h.position, b_d, b_w, depth + 1, KIND_REFRACT, cone_length)
                     b_ok = False
             if a_ok:
-                out.next = make_ray(
-                    offset_ray_origin(h.position, ng, bound), a_d, a_w, depth + 1, KIND_REFLECT, cone_length
-                )
+                out.next = make_ray(h.position, a_d, a_w, depth + 1, KIND_REFLECT, cone_length)
             elif b_ok:
-                out.next = make_ray(
-                    offset_ray_origin(h.position, -ng, bound), b_d, b_w, depth + 1, KIND_REFRACT, cone_length
-                )
+                out.next = make_ray(h.position, b_d, b_w, depth + 1, KIND_REFRACT, cone_length)
         return out
 
     @wp.func(inline=True)
@@ -371,7 +374,8 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
 
         d = wp.normalize(tf.gb.position[y, x] - tf.cam.origin)
         h = gbuffer_surface(scene, tf.gb, y, x, d)
-        bound = hit_bound(scene, tf.gb.triangle_id[y, x])
+        face = tf.gb.triangle_id[y, x]
+        bound = float(0.0)  # the primary point's shadow rays are the shadow kernel's
         cone_length = wp.length(h.position - tf.cam.origin)
         weight = wp.vec3(1.0, 1.0, 1.0)
         depth = int(0)
@@ -395,12 +399,15 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
                 have_hit = 0
                 can_push = stack_size < wp.static(MAX_DEPTH)
                 s = shade_hit(scene, amb, tf, item, pixel, segment, h, bound, d, weight, depth, cone_length, can_push)
+                if segment == 0 and (s.next.kind != KIND_NONE or s.pushed.kind != KIND_NONE):
+                    bound = hit_bound(scene, face)  # only now: the corners are a random fetch
                 segment += 1
                 radiance += s.radiance
                 shadow_rays += s.shadow_rays
                 ray = s.next
+                ray.origin = leaving_origin(ray, h.geometric_normal, bound)
                 if s.pushed.kind != KIND_NONE:
-                    stack_origin[stack_size] = s.pushed.origin
+                    stack_origin[stack_size] = leaving_origin(s.pushed, h.geometric_normal, bound)
                     stack_direction[stack_size] = s.pushed.direction
                     stack_weight[stack_size] = s.pushed.weight
                     stack_depth[stack_size] = s.pushed.depth

@@ -399,18 +399,19 @@ def _packet_shadow_kernel(layered: bool, soft: bool, cutouts: bool) -> wp.Kernel
                     if not _reuse_cached(scene, tf, visibility, cache, item, xy[0], xy[1]):
                         xs[j] = xy[0]
                         ys[j] = xy[1]
-        # what each pixel's rays leave from, read once: point, normals, error bound, side
+        # what each pixel's rays leave from, read once: point, normals, side; the error
+        # bound (its triangle's corners) once a light reaches the pixel
         ps = _group_vec3s()
         ns = _group_vec3s()
         ngs = _group_vec3s()
         bounds = _group_floats()
+        bounded = _group_ints()
         through = _group_ints()  # 1: transmissive, its rays may leave through the far side
         for j in range(SHADOW_GROUP):
             if xs[j] >= 0:
                 ps[j] = tf.gb.position[ys[j], xs[j]]
                 ns[j] = tf.gb.normal[ys[j], xs[j]]
                 ngs[j] = tf.gb.geometric_normal[ys[j], xs[j]]
-                bounds[j] = hit_bound(scene, tf.gb.triangle_id[ys[j], xs[j]])
                 mid = tf.gb.material_id[ys[j], xs[j]]
                 through[j] = wp.where((scene.materials[mid].flags & FLAG_TRANSMISSIVE) != 0, 1, 0)
         for i in range(scene.light_count):
@@ -431,6 +432,9 @@ def _packet_shadow_kernel(layered: bool, soft: bool, cutouts: bool) -> wp.Kernel
                         reaches[j] = 1
                         wis[j] = ls.wi
                         distances[j] = ls.distance
+                        if bounded[j] == 0:
+                            bounds[j] = hit_bound(scene, tf.gb.triangle_id[ys[j], xs[j]])
+                            bounded[j] = 1
             for _s in range(samples):
                 o = _group_vec3s()
                 d = _group_vec3s()

@@ -1,6 +1,7 @@
 """Reflection and refraction paths against geometric optics: a 45-degree mirror, the
-lateral shift through a glass slab, total internal reflection in a prism, Fresnel
-reflectance at normal incidence, the inverted image in a glass sphere."""
+lateral shift through a glass slab, total internal reflection in a prism and seen from
+inside a glass sphere, Fresnel reflectance at normal incidence, the inverted image in a
+glass sphere."""
 
 from __future__ import annotations
 
@@ -143,6 +144,28 @@ def test_total_internal_reflection_in_a_prism(device: str) -> None:
     c = out.color[inner]
     assert np.allclose(c[:, 0], expected[inner], rtol=2e-3)
     assert np.all(c[:, 2] < 1e-3) and np.all(c[:, 1] < 1e-3)
+
+
+def test_seen_from_inside_glass_a_primary_point_reflects_totally_beyond_the_critical_angle(device: str) -> None:
+    """The camera inside a glass sphere (radius 2, IOR 1.5) sees its wall from within:
+    the primary points are exits (``front_face`` 0, eta 1/1.5), so a ray whose line
+    passes the centre farther than R / 1.5 meets the wall beyond the critical angle and
+    sends no refraction ray; a closer one does.  With one bounce, the refraction rays are
+    the pixels the analytic rule lets out (a primary point taken for an entry would let
+    every pixel out)."""
+    sphere = uv_sphere((0.0, 0.0, 0.0), 2.0, 96, 192, 0)
+    cam = look_at_camera((1.4, 0.0, 0.0), (1.4, 0.0, -1.0), hfov_deg=60.0)
+    scene = make_scene([sphere], [GLASS], cameras=[cam])
+    out = trace_variants(scene, cam, device, W, H, settings=TraceSettings(max_depth=1))
+    assert (out.triangle_id >= 0).all()
+    o, d = camera_rays(cam, W, H)
+    centre_distance = np.linalg.norm(np.cross(o, d), axis=-1)  # the centre is the origin
+    critical = 2.0 / 1.5
+    surely_out = int((centre_distance < 0.99 * critical).sum())
+    maybe_out = int((centre_distance < 1.01 * critical).sum())
+    assert 0.25 * W * H < surely_out and maybe_out < 0.6 * W * H  # both kinds of pixel in view
+    assert surely_out <= out.counts.refraction <= maybe_out
+    assert out.counts.reflection == W * H
 
 
 def test_fresnel_reflectance_is_0_04_at_normal_incidence(device: str) -> None:

@@ -49,7 +49,7 @@ from ..core.camera import pixel_ray_direction
 from ..core.constants import INV_PI, SMOOTH_ROUGHNESS, mirror_share
 from ..core.gbuffer import GBufferArrays
 from ..core.pixel_list import listed_pixel
-from ..core.scene_gpu import FLAG_BLENDED, FLAG_TRANSMISSIVE, AmbientGPU, SceneGPU
+from ..core.scene_gpu import FLAG_BLENDED, FLAG_REFRACTIVE, FLAG_TRANSMISSIVE, AmbientGPU, SceneGPU
 from ..lighting.ambient import ambient_diffuse, ambient_specular, env_brdf
 from ..lighting.lights import light_sample
 from ..lighting.shading import diffuse_albedo, light_response, shade_surface
@@ -105,20 +105,25 @@ class HitShading:
 
 
 @wp.func
-def gbuffer_surface(scene: SceneGPU, gb: GBufferArrays, y: int, x: int, d: wp.vec3) -> SurfaceHit:
-    """The primary surface of pixel (x, y) from the G-buffer, seen along ``d``
-    (``front_face`` from the winding of its triangle)."""
-    h = SurfaceHit()
-    tri = gb.triangle_id[y, x]
-    h.position = gb.position[y, x]
-    h.normal = gb.normal[y, x]
-    h.geometric_normal = gb.geometric_normal[y, x]
+def facing_front(scene: SceneGPU, tri: int, d: wp.vec3) -> int:
+    """1 when ``d`` meets triangle ``tri`` on the side its winding (counter-clockwise)
+    faces, 0 on the back (``SurfaceHit.front_face``)."""
     k = 3 * tri
     p0 = scene.points[scene.indices[k]]
     winding = wp.cross(scene.points[scene.indices[k + 1]] - p0, scene.points[scene.indices[k + 2]] - p0)
+    return wp.where(wp.dot(winding, d) > 0.0, 0, 1)
+
+
+@wp.func
+def gbuffer_surface(scene: SceneGPU, gb: GBufferArrays, y: int, x: int) -> SurfaceHit:
+    """The primary surface of pixel (x, y) from the G-buffer with ``front_face`` 1: its
+    triangle's corners are not fetched (a random read); a caller that reads the side
+    sets it (``facing_front``)."""
+    h = SurfaceHit()
+    h.position = gb.position[y, x]
+    h.normal = gb.normal[y, x]
+    h.geometric_normal = gb.geometric_normal[y, x]
     h.front_face = 1
-    if wp.dot(winding, d) > 0.0:
-        h.front_face = 0
     h.albedo = gb.albedo[y, x]
     h.specular = gb.specular[y, x]
     h.emission = gb.emission[y, x]
@@ -170,6 +175,7 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
         variant.layered_shadows, variant.soft_shadows, variant.cutouts, variant.wide_bvh
     )
     transmission = make_transmission_func(variant.refractions)
+    refractions = variant.refractions
     shadows = variant.shadows
     reflections = variant.reflections
     transparency = variant.transparency
@@ -373,8 +379,11 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
             return
 
         d = wp.normalize(tf.gb.position[y, x] - tf.cam.origin)
-        h = gbuffer_surface(scene, tf.gb, y, x, d)
         face = tf.gb.triangle_id[y, x]
+        h = gbuffer_surface(scene, tf.gb, y, x)
+        if wp.static(refractions):  # only a refracting surface's side is read (``optics``)
+            if (h.flags & FLAG_REFRACTIVE) != 0:
+                h.front_face = facing_front(scene, face, d)
         bound = float(0.0)  # the primary point's shadow rays are the shadow kernel's
         cone_length = wp.length(h.position - tf.cam.origin)
         weight = wp.vec3(1.0, 1.0, 1.0)

@@ -1,9 +1,8 @@
 """Every Warp kernel of primary visibility (one compile unit).
 
 * ``camera_points_kernel`` (per vertex, grouped: ``parallel.launch_groups``): every
-  point in camera space and,
-  in front of the near plane, projected to the screen, so the triangles sharing a
-  vertex reuse it (and see bit-identical corners).
+  point in camera space and, in front of the near plane, projected to the screen, so
+  the triangles sharing a vertex reuse it (and see bit-identical corners).
 * ``cluster_bounds_kernel`` (one thread per cluster): the bounding box of each run of
   ``CLUSTER_TRIANGLES`` consecutive triangles (meshes are stored whole, so a run is a
   patch of one mesh), computed again only when the points move.

@@ -113,6 +113,39 @@ def test_launch_groups_covers_each_item_once_in_groups(device: str, threads: int
         assert np.median(sizes) == group  # most launch items take a whole group
 
 
+@wp.kernel
+def _count_into_slots(
+    sums: wp.array(dtype=wp.int32),
+    item_slot: wp.array(dtype=wp.int32),
+    slot: int,
+    start: int,
+    stop: int,
+    group: int,
+):
+    """Add each item into its thread's slot; record which slot counted it."""
+    first = start + wp.tid() * group
+    for i in range(first, wp.min(first + group, stop)):
+        wp.atomic_add(sums, slot, 1)
+        item_slot[i] = item_slot[i] + slot + 1
+
+
+@pytest.mark.parametrize("threads", [1, 2, 3])
+@pytest.mark.parametrize("count", [1, 17, 9001, 200_000])
+def test_launch_slots_counts_each_item_once_into_a_thread_slot(device: str, threads: int, count: int) -> None:
+    """Every item lands once, in one slot of the threads' (slot 0 alone on CUDA), and
+    the slots add up to the items."""
+    sums = wp.zeros(threads, dtype=wp.int32, device=device)
+    item_slot = wp.zeros(count, dtype=wp.int32, device=device)
+    with Launcher(device, threads) as launcher:
+        launcher.launch_slots(_count_into_slots, count, [sums, item_slot], min_band_items=16)
+    slots = item_slot.numpy() - 1
+    assert slots.min() >= 0 and slots.max() < threads  # each item counted once, by a real slot
+    if wp.get_device(device).is_cuda:
+        assert (slots == 0).all()
+    np.testing.assert_array_equal(sums.numpy(), np.bincount(slots, minlength=threads))
+    assert int(sums.numpy().sum()) == count
+
+
 @pytest.mark.parametrize(("first", "items", "group"), [(0, 1, 16), (7, 16, 16), (7, 17, 16), (100, 33, 4), (3, 5, 1)])
 def test_group_launch_covers_the_band_and_no_more(first: int, items: int, group: int) -> None:
     dim, (start, stop, g) = group_launch(first, items, group)

@@ -256,26 +256,28 @@ class Launcher:
     def launch_slots(
         self, kernel: wp.Kernel, count: int, inputs: Sequence[Any], min_band_items: int = MIN_BAND_ITEMS
     ) -> None:
-        """Launch a 1-D kernel that accumulates per thread: the last three inputs must be
-        ``slot: int, start: int, step: int``.  On the CPU the items go out in bands like
-        ``launch_items``'s (none under ``min_band_items``: a kernel that does a few ns of
-        work per item is cut no finer than one band per thread with a large one), and
-        each band adds into the ``slot`` of the thread that runs it (0 .. threads - 1),
-        so no two threads ever add to the same slot (Warp's CPU atomics are plain
-        read-modify-writes).  On CUDA one launch (slot 0) covers every item and the adds
-        are atomic."""
+        """Launch a grouped 1-D kernel that accumulates per thread: the last four inputs
+        must be ``slot: int, start: int, stop: int, group: int`` (``group_launch``).  On
+        the CPU the items go out in bands like ``launch_items``'s (none under
+        ``min_band_items``: a kernel that does a few ns of work per item is cut no finer
+        than one band per thread with a large one), and each band adds into the ``slot``
+        of the thread that runs it (0 .. threads - 1), so no two threads ever add to the
+        same slot (Warp's CPU atomics are plain read-modify-writes).  On CUDA one launch
+        (slot 0) covers every item and the adds are atomic."""
         if count <= 0:
             return
         self.ensure_loaded(kernel)
+        group = item_group(self.device)
         if self.device.is_cuda:
-            self.launch(kernel, 0, count, [*inputs, 0, 0, 1])
+            dim, tail = group_launch(0, count, group)
+            self.launch(kernel, 0, dim, [*inputs, 0, *tail])
             return
 
         run = BandLaunch(self, kernel, inputs)
 
         def launch_band(k: int, bands: int, slot: int) -> None:
-            start, items = band(k, bands, count)
-            run(slot, items, (slot, start, 1), k == 0)
+            dim, tail = group_launch(*band(k, bands, count), group)
+            run(slot, dim, (slot, *tail), k == 0)
 
         self.share(launch_band, band_count(count, self.threads, min_band_items))
 

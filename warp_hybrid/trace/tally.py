@@ -38,19 +38,20 @@ def tally_tiles(
     tally: wp.array3d(dtype=wp.int32),
     slot: int,
     start: int,
-    step: int,
+    stop: int,
+    group: int,
 ):
-    """Item ``start + tid * step`` of a traced pixel list into tally slot ``slot``."""
-    item = start + wp.tid() * step
-    pixel = pixels[item]
-    if pixel < 0 or pixel >= width * height:
-        return
-    y = pixel // width
-    tile = (y // TILE_PX) * tiles_x + (pixel - y * width) // TILE_PX
-    wp.atomic_add(tally, slot, tile, 0, 1)
-    wp.atomic_add(tally, slot, tile, 1, counts[item, 0] + counts[item, 1])
-    wp.atomic_add(tally, slot, tile, 2, counts[item, 2])
-    wp.atomic_add(tally, slot, tile, 3, counts[item, 3])
+    """The items of this launch item's group of a traced pixel list into tally slot ``slot``."""
+    first = start + wp.tid() * group
+    for item in range(first, wp.min(first + group, stop)):
+        pixel = pixels[item]
+        if pixel >= 0 and pixel < width * height:
+            y = pixel // width
+            tile = (y // TILE_PX) * tiles_x + (pixel - y * width) // TILE_PX
+            wp.atomic_add(tally, slot, tile, 0, 1)
+            wp.atomic_add(tally, slot, tile, 1, counts[item, 0] + counts[item, 1])
+            wp.atomic_add(tally, slot, tile, 2, counts[item, 2])
+            wp.atomic_add(tally, slot, tile, 3, counts[item, 3])
 
 
 @dataclass

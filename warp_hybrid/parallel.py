@@ -236,22 +236,7 @@ class Launcher:
         group is ``item_group(device)``), so on the CPU one launch item loops over a
         group of consecutive items and its struct arguments are copied once a group.
         Bands as in ``launch_items``."""
-        if count <= 0:
-            return
-        self.ensure_loaded(kernel)
-        group = item_group(self.device)
-        if self.device.is_cuda:
-            dim, tail = group_launch(0, count, group)
-            self.launch(kernel, 0, dim, [*inputs, *tail])
-            return
-
-        run = BandLaunch(self, kernel, inputs)
-
-        def launch_band(k: int, bands: int, slot: int) -> None:
-            dim, tail = group_launch(*band(k, bands, count), group)
-            run(slot, dim, tail, k == 0)
-
-        self.share(launch_band, band_count(count, self.threads, min_band_items))
+        self._launch_grouped(kernel, count, inputs, min_band_items, slotted=False)
 
     def launch_slots(
         self, kernel: wp.Kernel, count: int, inputs: Sequence[Any], min_band_items: int = MIN_BAND_ITEMS
@@ -264,20 +249,27 @@ class Launcher:
         of the thread that runs it (0 .. threads - 1), so no two threads ever add to the
         same slot (Warp's CPU atomics are plain read-modify-writes).  On CUDA one launch
         (slot 0) covers every item and the adds are atomic."""
+        self._launch_grouped(kernel, count, inputs, min_band_items, slotted=True)
+
+    def _launch_grouped(
+        self, kernel: wp.Kernel, count: int, inputs: Sequence[Any], min_band_items: int, slotted: bool
+    ) -> None:
+        """The bands of a grouped kernel (``launch_groups``); with ``slotted`` the thread's
+        slot (0 on CUDA) goes before each band's ``start, stop, group``."""
         if count <= 0:
             return
         self.ensure_loaded(kernel)
         group = item_group(self.device)
         if self.device.is_cuda:
             dim, tail = group_launch(0, count, group)
-            self.launch(kernel, 0, dim, [*inputs, 0, *tail])
+            self.launch(kernel, 0, dim, [*inputs, *((0,) if slotted else ()), *tail])
             return
 
         run = BandLaunch(self, kernel, inputs)
 
         def launch_band(k: int, bands: int, slot: int) -> None:
             dim, tail = group_launch(*band(k, bands, count), group)
-            run(slot, dim, (slot, *tail), k == 0)
+            run(slot, dim, (slot, *tail) if slotted else tail, k == 0)
 
         self.share(launch_band, band_count(count, self.threads, min_band_items))
 

@@ -77,7 +77,8 @@ def _object_symbols(obj: Path, section: str) -> dict[str, tuple[int, int, str]]:
     sections = re.findall(r"^\s*\[\s*(\d+)\]\s+(\S+)", _run(["readelf", "-SW", str(obj)]), re.M)
     index = next(i for i, name in sections if name == section)
     rows = [line.split() for line in _run(["readelf", "-sW", str(obj)]).splitlines()]
-    funcs = [(r[7], int(r[1], 16), int(r[2])) for r in rows if len(r) == 8 and r[3] == "FUNC" and r[6] == index]
+    # readelf prints a size of 100000 bytes or more in hex ("0x186a0")
+    funcs = [(r[7], int(r[1], 16), int(r[2], 0)) for r in rows if len(r) == 8 and r[3] == "FUNC" and r[6] == index]
     names = subprocess.run(
         ["c++filt"], input="\n".join(f[0] for f in funcs), capture_output=True, text=True, check=True
     ).stdout.splitlines()

@@ -209,9 +209,9 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
         return out
 
     # Inline (its one call site is the path loop): Warp passes struct arguments by value,
-    # and where clang kept this body out of line (the variants with glass, whose body is
-    # biggest) each call copied the ~2.8 KB of scene, ambient and frame arguments; the
-    # smoke test's path kernel took 1.7x as long (README, "shade_hit inline").
+    # and where clang kept this body out of line (the variants with glass and a dome, whose
+    # body is biggest) each call copied the ~2.8 KB of scene, ambient and frame arguments;
+    # the smoke test's path kernel took 1.7x as long (README, "`shade_hit` inline").
     @wp.func(inline=True)
     def shade_hit(
         scene: SceneGPU,

@@ -13,6 +13,7 @@ from warp_hybrid.parallel import (
     BANDS_PER_THREAD,
     ITEM_GROUP,
     BandLaunch,
+    CostBands,
     Launcher,
     band,
     band_count,
@@ -326,3 +327,53 @@ def test_a_launch_profile_times_every_piece_by_kernel(device: str) -> None:
     )
     assert all(r["cpu_ms"] >= 0.0 for r in rows)
     np.testing.assert_array_equal(items.numpy(), np.full(100, 2, np.int32))
+
+
+def _tile(spans: list[tuple[int, int]], total: int) -> None:
+    """``spans`` are contiguous, in order, none empty, and cover 0..total-1 once."""
+    assert spans[0][0] == 0 and all(n > 0 for _, n in spans)
+    assert all(a[0] + a[1] == b[0] for a, b in zip(spans, spans[1:], strict=False))
+    assert spans[-1][0] + spans[-1][1] == total
+
+
+def test_cost_bands_start_equal_then_cut_at_equal_measured_cost() -> None:
+    """Before any measurement the bands are ``band``'s; after one, each band of the next
+    pass holds the same measured cost to within one item's."""
+    bands = CostBands()
+    total, count = 4096, 16
+    first = bands.spans(total, count)
+    assert first == [band(k, count, total) for k in range(count)]
+    # the staircase's shape: the first sixteenth costs 8x, the rest little
+    item_cost = np.where(np.arange(total) < total // 16, 8.0, 0.1)
+    bands.measured(first, [item_cost[a : a + n].sum() for a, n in first])
+    second = bands.spans(total, count)
+    _tile(second, total)
+    costs = np.array([item_cost[a : a + n].sum() for a, n in second])
+    assert costs.max() - costs.min() <= item_cost.max() + 1e-9
+    assert second[0][1] < total // 64  # narrow where the cost is
+    # measured again at equal costs, the bands stay where they are
+    bands.measured(second, costs)
+    assert bands.spans(total, count) == second
+
+
+@pytest.mark.parametrize(("total", "count"), [(1, 4), (5, 5), (6, 5), (100, 16), (4105, 16)])
+def test_cost_bands_never_leave_a_band_empty(total: int, count: int) -> None:
+    """However the cost piles up (all on the first item, all on the last, some zero),
+    every band holds at least one item and they tile the range; more bands than items
+    give one item a band."""
+    for weights in ([1.0] + [0.0] * (total - 1), [0.0] * (total - 1) + [1.0], [0.0] * total):
+        bands = CostBands()
+        spans = bands.spans(total, count)
+        bands.measured(spans, [sum(weights[a : a + n]) for a, n in spans])
+        spans = bands.spans(total, count)
+        _tile(spans, total)
+        assert len(spans) == min(total, count)
+
+
+def test_cost_bands_start_again_for_another_range() -> None:
+    """A measurement over one length says nothing about another: equal bands again."""
+    bands = CostBands()
+    spans = bands.spans(100, 4)
+    bands.measured(spans, [9.0, 1.0, 1.0, 1.0])
+    assert bands.spans(100, 4) != spans
+    assert bands.spans(120, 4) == [band(k, 4, 120) for k in range(4)]

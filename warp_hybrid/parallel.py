@@ -28,6 +28,7 @@ from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
+import numpy as np
 import warp as wp
 
 from .launch_profile import LaunchProfile
@@ -58,6 +59,51 @@ def band(k: int, bands: int, total: int) -> tuple[int, int]:
     sizes differing by at most one, in order."""
     first = k * total // bands
     return first, (k + 1) * total // bands - first
+
+
+class CostBands:
+    """Contiguous bands over a 1-D range whose boundaries follow what the last pass of the
+    same range cost: a pass whose cost piles up in a few places (the coverage pass: the
+    clusters of a staircase's near walls cost 8x the average, a sixteenth of the
+    clusters over half the pass) gets narrow bands there and wide ones elsewhere, so the
+    threads taking bands finish together.  ``spans`` gives the bands for a pass,
+    ``measured`` takes each band's cost afterwards (its thread's CPU time: a band's cost
+    spread evenly over its items); the next pass cuts the range into bands of equal
+    measured cost.  A range of another length starts again from equal bands.  Where
+    the bands fall never changes what a pass computes, only which thread runs it."""
+
+    def __init__(self) -> None:
+        """No cost measured yet: the first pass gets equal bands."""
+        self._density: np.ndarray | None = None
+
+    def spans(self, total: int, bands: int) -> list[tuple[int, int]]:
+        """``bands`` contiguous bands (first, count), in order, covering 0 .. total - 1 once:
+        equal (``band``) until a pass over ``total`` items was measured, then of equal
+        measured cost, none empty."""
+        bands = max(1, min(bands, total))
+        density = self._density
+        if density is None or len(density) != total or bands == 1:
+            return [band(k, bands, total) for k in range(bands)]
+        cumulative = np.cumsum(density)
+        # an item goes before the cut where the cost up to its middle is below the target
+        middles = cumulative - 0.5 * density
+        targets = cumulative[-1] * np.arange(1, bands) / bands
+        edges = [0]
+        for k, cut in enumerate(np.searchsorted(middles, targets), start=1):
+            # none empty: after the band before, with an item left for each band after
+            edges.append(min(max(int(cut), edges[-1] + 1), total - (bands - k)))
+        edges.append(total)
+        return [(edges[k], edges[k + 1] - edges[k]) for k in range(bands)]
+
+    def measured(self, spans: Sequence[tuple[int, int]], costs: Sequence[float]) -> None:
+        """What each band of ``spans`` cost (any unit, >= 0); a band that cost nothing
+        measurable keeps a little (1e-3 of the mean) so the next cut stays finite."""
+        total = sum(count for _, count in spans)
+        density = np.empty(total, dtype=np.float64)
+        for (first, count), cost in zip(spans, costs, strict=True):
+            density[first : first + count] = max(float(cost), 0.0) / max(count, 1)
+        floor = 1.0e-3 * float(density.mean()) if total else 0.0
+        self._density = np.maximum(density, max(floor, 1.0e-300))
 
 
 def item_group(device: wp.context.Device) -> int:

@@ -116,3 +116,48 @@ def test_every_pixel_is_rewritten_each_frame(device: str) -> None:
             renderer.render(ds, make_camera_gpu(away, W, H), gb, StageTimer())
             for c in CHANNELS:
                 assert (gb.channel_numpy(c.name) == BACKGROUND[c.name]).all(), c.name
+
+
+def test_overdraw_and_hits_are_the_same_on_any_thread_count(device: str, render, overdraw) -> None:
+    """The row bands of a small scene (every thread covering its own rows of one key
+    slice) and the cluster bands of a larger one (a slice per thread) count the same
+    fragments and find the same hits as one thread."""
+    small = make_scene([uv_sphere((0.1, 0.05, -3.0), 1.0, rings=10, segments=20)], [Material("m")])
+    # 64 spheres of 800 triangles: over 16 clusters of 64 triangles a thread, so cluster bands.
+    large = make_scene(
+        [
+            uv_sphere((-1.4 + 0.4 * (k % 8), -1.0 + 0.3 * (k // 8), -3.0 - 0.01 * k), 0.3, rings=20, segments=20)
+            for k in range(64)
+        ],
+        [Material("m")],
+    )
+    assert large.triangle_count >= 3 * 16 * 64
+    for scene in (small, large):
+        counts = overdraw(scene, _camera(), W, H, device)
+        tri = render(scene, _camera(), W, H, device).triangle_id.numpy()
+        assert counts.max() >= 2 and (tri >= 0).sum() > 200
+        for threads in (2, 3):
+            np.testing.assert_array_equal(overdraw(scene, _camera(), W, H, device, threads=threads), counts)
+            np.testing.assert_array_equal(
+                render(scene, _camera(), W, H, device, threads=threads).triangle_id.numpy(), tri
+            )
+
+
+def test_a_band_of_rows_leaves_the_other_rows_alone(device: str) -> None:
+    """``find_hits`` over some rows writes those rows' hit records only, on one or two
+    threads: the rest keep what the last full frame wrote."""
+    ds = DeviceScene(make_scene([uv_sphere((0.1, 0.05, -3.0), 1.0, rings=10, segments=20)], [Material("m")]), device)
+    cam = make_camera_gpu(_camera(), W, H)
+    for threads in (1, 2):
+        with Launcher(device, threads=threads) as launcher:
+            rasterizer = Rasterizer(launcher)
+            full = GBuffer(W, H, device)
+            rasterizer.find_hits(ds, cam, full, StageTimer())
+            expected = full.triangle_id.numpy().reshape(H, W)
+            part = GBuffer(W, H, device)
+            part.triangle_id.fill_(-7)
+            rasterizer.find_hits(ds, cam, part, StageTimer(), rows=(10, 30))
+            got = part.triangle_id.numpy().reshape(H, W)
+            np.testing.assert_array_equal(got[10:30], expected[10:30])
+            assert (got[:10] == -7).all() and (got[30:] == -7).all()
+            assert (expected[10:30] >= 0).any()

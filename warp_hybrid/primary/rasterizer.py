@@ -11,9 +11,12 @@
   read-modify-writes and one launch runs on one thread, so the work is split between
   the launcher's threads and each thread owns one slice of the buffer; the resolve pass
   takes the minimum over the slices (no merge pass).  The clusters are split between
-  the threads (bands of clusters) unless there are fewer than ``MIN_BAND_CLUSTERS`` a
+  the threads (bands of clusters, cut where the last frame's clusters cost the most
+  time: ``parallel.CostBands``) unless there are fewer than ``MIN_BAND_CLUSTERS`` a
   thread (a small scene, whose few large triangles cost their pixels, not their set-up):
-  then each thread takes every cluster and one band of the rows.
+  then each thread takes every cluster and one band of the rows, clearing and covering
+  only its own rows of the first slice (the bands never meet, so one slice serves them
+  all and the resolve reads one key a pixel).
 * ``resolve``: per pixel, the winning triangle is intersected with the pixel's camera
   ray for exact depth and barycentrics: the hit record (``kernels.resolve_kernel``),
   the same one the ray-cast path writes.
@@ -21,6 +24,7 @@
 
 from __future__ import annotations
 
+import time
 import weakref
 
 import numpy as np
@@ -29,7 +33,7 @@ import warp as wp
 from ..core.camera import CameraGPU
 from ..core.gbuffer import GBuffer
 from ..core.rows import RowSpan
-from ..parallel import BandLaunch, Launcher, band, band_count
+from ..parallel import BandLaunch, CostBands, Launcher, band, band_count
 from ..scene.device import DeviceScene
 from ..timing import StageTimer
 from . import kernels
@@ -53,6 +57,8 @@ class Rasterizer(PrimaryVisibility):
         self._bounds: wp.array | None = None
         # The scene (weakly: never kept alive for this) and geometry_version the boxes are of.
         self._bounds_of: tuple[weakref.ref, int] | None = None
+        # The coverage pass's bands of clusters, cut where the last frame's cost lay.
+        self._cluster_bands = CostBands()
 
     def _slices(self, height: int, width: int) -> wp.array:
         """The key buffer, one (height, width) slice per thread, reused."""
@@ -93,12 +99,14 @@ class Rasterizer(PrimaryVisibility):
         mode: int,
         clear: int,
         rows: RowSpan | None = None,
-    ) -> None:
+    ) -> int:
         """Transform the points, then clear each thread's slice and run the coverage kernel
         into it: over bands of clusters (``Launcher.share``), or, for fewer than
         ``MIN_BAND_CLUSTERS`` clusters a thread (and on one thread), every cluster into
-        piece k's band of rows, piece k clearing and writing slice k (module docstring).
-        ``rows`` (first, stop): only those rows of the slices are cleared and covered."""
+        piece k's band of rows, piece k clearing and writing those rows of slice 0 (module
+        docstring).  ``rows`` (first, stop): only those rows of the slices are cleared and
+        covered.  Returns how many slices, from the first, were written (the others are
+        untouched)."""
         launcher = self.launcher
         launcher.ensure_loaded(kernels.coverage_kernel)
         count = scene.scene.triangle_count
@@ -120,26 +128,33 @@ class Rasterizer(PrimaryVisibility):
 
             def clear_and_cover_rows(k: int, n: int) -> None:
                 # one piece, timed whole when profiling (the launch is not timed again)
-                keys[k, top:bottom].fill_(clear)
+                first, size = band(k, n, bottom - top)
+                keys[0, top + first : top + first + size].fill_(clear)
                 if clusters > 0:
-                    first, size = band(k, n, bottom - top)
-                    piece = inputs(k, (top + first, top + first + size))
+                    piece = inputs(0, (top + first, top + first + size))
                     wp.launch(kernels.coverage_kernel, dim=clusters, inputs=[*piece, 0, 1], device=launcher.device)
 
             launcher.run(clear_and_cover_rows, threads)
-            return
+            return 1
 
         def clear_slice(k: int, _n: int) -> None:
             keys[k, top:bottom].fill_(clear)
 
         launcher.run(clear_slice, threads)
         run = BandLaunch(launcher, kernels.coverage_kernel, inputs)
+        spans = self._cluster_bands.spans(clusters, band_count(clusters, threads, MIN_BAND_CLUSTERS))
+        costs = [0.0] * len(spans)
 
-        def cover_band(k: int, bands: int, slot: int) -> None:
-            first, size = band(k, bands, clusters)
+        def cover_band(k: int, _bands: int, slot: int) -> None:
+            first, size = spans[k]
+            start = time.thread_time()
             run(slot, size, (first, 1), k == 0)
+            costs[k] = time.thread_time() - start
 
-        launcher.share(cover_band, band_count(clusters, threads, MIN_BAND_CLUSTERS))
+        launcher.share(cover_band, len(spans))
+        if mode == MODE_DEPTH:
+            self._cluster_bands.measured(spans, costs)
+        return threads
 
     def find_hits(
         self, scene: DeviceScene, camera: CameraGPU, gbuffer: GBuffer, timer: StageTimer, rows: RowSpan | None = None
@@ -150,13 +165,13 @@ class Rasterizer(PrimaryVisibility):
             return
         keys = self._slices(gbuffer.height, gbuffer.width)
         with timer.stage("raster"):
-            self._rasterize(scene, camera, keys, MODE_DEPTH, _EMPTY_KEY, rows)
+            written = self._rasterize(scene, camera, keys, MODE_DEPTH, _EMPTY_KEY, rows)
         with timer.stage("resolve"):
             self.launcher.launch_pixels(
                 kernels.resolve_kernel,
                 gbuffer.height,
                 gbuffer.width,
-                [scene.gpu, camera, keys, gbuffer.rows()],
+                [scene.gpu, camera, keys[:written], gbuffer.rows()],
                 rows=rows,
             )
 
@@ -165,5 +180,5 @@ class Rasterizer(PrimaryVisibility):
         (depth complexity; 1 where a flat mesh covers a pixel exactly once)."""
         shape = (self.launcher.threads, camera.height, camera.width)
         keys = wp.empty(shape, dtype=wp.uint64, device=self.launcher.device)
-        self._rasterize(scene, camera, keys, MODE_COUNT, 0)
-        return keys.numpy().sum(axis=0).astype(np.int64)
+        written = self._rasterize(scene, camera, keys, MODE_COUNT, 0)
+        return keys.numpy()[:written].sum(axis=0).astype(np.int64)

@@ -49,7 +49,15 @@ def _compare(scene: Scene, a: GBuffer, b: GBuffer) -> dict[str, float]:
     da, db = a.depth.numpy()[keep], b.depth.numpy()[keep]
     na, nb = a.normal.numpy()[keep], b.normal.numpy()[keep]
     same = ta[keep] == tb[keep]
+    # Both paths take the hit record of the triangle they found from ``exact_hit`` on the
+    # pixel's ray (the raster's resolve in a native row loop, the ray cast per pixel).
+    found = (ta == tb) & (tb >= 0)
+    bits = [
+        np.array_equal(c.numpy()[found].view(np.uint32), d.numpy()[found].view(np.uint32))
+        for c, d in ((a.depth, b.depth), (a.barycentric, b.barycentric))
+    ]
     return {
+        "same_hit_bits": float(all(bits)),
         "pixels": float(keep.sum()),
         "silhouette_share": float(silhouette.mean()),
         "same_triangle": float(same.mean()),
@@ -71,6 +79,7 @@ def test_raster_matches_raycast_on_an_analytic_scene(device: str, render) -> Non
     assert s["normal_agree"] == 1.0
     assert s["material_agree"] == 1.0
     assert s["same_triangle"] >= 0.995  # differences only where a pixel centre lies on an inner edge
+    assert s["same_hit_bits"] == 1.0
     same = a.triangle_id.numpy() == b.triangle_id.numpy()
     for name in ("position", "albedo", "specular", "optics"):
         got, want = a.channel_numpy(name)[same], b.channel_numpy(name)[same]
@@ -93,6 +102,7 @@ def test_raster_matches_raycast_on_shared_scenes(device: str, render, shared_sce
     assert s["depth_agree"] >= 0.999
     assert s["normal_agree"] >= 0.995
     assert s["same_triangle"] >= 0.99
+    assert s["same_hit_bits"] == 1.0
 
 
 @pytest.mark.parametrize("path", ["raster", "raycast"])

@@ -116,13 +116,25 @@ def box_rows(cam: CameraGPU, lo: np.ndarray, hi: np.ndarray) -> tuple[int, int] 
     return (first, stop) if first < stop else (0, 0)
 
 
-@wp.func(inline=True)
+#: C++ statements: ``ray``, the direction of the camera ray of the ``CameraGPU`` named
+#: ``cam`` through image point (``px``, ``py``) (the module docstring's formula), one Warp
+#: operation a statement as Warp's own code generator writes it, so the compiler fuses
+#: nothing differently: written once for ``camera_ray`` and for the native row loops
+#: that make their own rays (the resolve's, ``primary.kernels``), the same bits in both.
+CAMERA_RAY_CPP = """
+const float cr_ndc_x = wp::sub(wp::div(wp::mul(2.0f, px), (float)cam.width), 1.0f);
+const float cr_ndc_y = wp::sub(1.0f, wp::div(wp::mul(2.0f, py), (float)cam.height));
+const wp::vec3 ray = wp::add(
+    wp::add(cam.forward, wp::mul(cam.right, wp::mul(cr_ndc_x, cam.tan_x))), wp::mul(cam.up, wp::mul(cr_ndc_y, cam.tan_y))
+);
+"""
+
+
+@wp.func_native(CAMERA_RAY_CPP + "return ray;")
 def camera_ray(cam: CameraGPU, px: float, py: float) -> wp.vec3:
     """Direction of the camera ray through image point (px, py) in pixels; not
     normalised (unit forward component)."""
-    ndc_x = 2.0 * px / float(cam.width) - 1.0
-    ndc_y = 1.0 - 2.0 * py / float(cam.height)
-    return cam.forward + cam.right * (ndc_x * cam.tan_x) + cam.up * (ndc_y * cam.tan_y)
+    ...
 
 
 @wp.func(inline=True)

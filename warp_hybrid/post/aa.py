@@ -35,7 +35,7 @@ import math
 import numpy as np
 import warp as wp
 
-from .native_rows import CHUNK_CPP, row_cpp
+from ..core.native_rows import CHUNK_CPP, row_cpp
 
 EDGE_THRESHOLD = 0.166
 EDGE_THRESHOLD_MIN = 0.0833

@@ -16,10 +16,10 @@ local types, which Warp resolves from evaluated annotations."""
 import warp as wp
 
 from ..core.constants import luma709
+from ..core.native_rows import CHUNK_CPP, row_cpp
 from .aa import LUMA_OF_CODES_CPP, fxaa_edge_pixels, fxaa_pixel
 from .color import SRGB_QUANTIZE_CPP, Srgb8Encoder
 from .exposure import LOG_DELTA, Exposure, exposure_from_log_sum, pairwise_sum
-from .native_rows import CHUNK_CPP, row_cpp
 from .tonemap import CHANNEL_CPP
 
 wp.set_module_options({"enable_backward": False})

@@ -24,31 +24,65 @@ def pixel_footprint(scene: SceneGPU, cam: CameraGPU, tri: int, d: wp.vec3) -> wp
     return uv_footprint(scene, tri, cam.origin, d, cam.right * spread[0], cam.up * (-spread[1]))
 
 
-@wp.func(inline=True)
+#: C++ statements: the ray ``o + t d`` against the plane of the triangle ``p0, p1, p2``
+#: (Moller-Trumbore) without a branch: ``rt_t``; ``rt_bu``, ``rt_bv``, Warp's barycentrics
+#: (the weights of ``p0`` and ``p1``) clamped onto the triangle; ``rt_ok``, false where the
+#: ray is parallel to the plane (then t = 0 and both weights 1/3).  One Warp operation a
+#: statement (as ``camera.CAMERA_RAY_CPP``): written once for ``ray_triangle``,
+#: ``exact_hit`` and the resolve's row loop (``kernels.py``), the same bits in each.
+RAY_TRIANGLE_CPP = """
+const wp::vec3 rt_e1 = wp::sub(p1, p0);
+const wp::vec3 rt_e2 = wp::sub(p2, p0);
+const wp::vec3 rt_pv = wp::cross(d, rt_e2);
+const float rt_det = wp::dot(rt_e1, rt_pv);
+const bool rt_ok = !(rt_det == 0.0f);
+const float rt_inv = wp::div(1.0f, rt_det);
+const wp::vec3 rt_tv = wp::sub(o, p0);
+const float rt_b1 = wp::mul(wp::dot(rt_tv, rt_pv), rt_inv);
+const wp::vec3 rt_qv = wp::cross(rt_tv, rt_e1);
+const float rt_b2 = wp::mul(wp::dot(d, rt_qv), rt_inv);
+const float rt_hit_t = wp::mul(wp::dot(rt_e2, rt_qv), rt_inv);
+const float rt_c1 = wp::max(rt_b1, 0.0f);
+const float rt_c2 = wp::max(rt_b2, 0.0f);
+const float rt_s = wp::add(rt_c1, rt_c2);
+const bool rt_over = rt_s > 1.0f;
+const float rt_w1 = rt_over ? wp::div(rt_c1, rt_s) : rt_c1;
+const float rt_w2 = rt_over ? wp::div(rt_c2, rt_s) : rt_c2;
+const float rt_third = wp::div(1.0f, 3.0f);
+const float rt_t = rt_ok ? rt_hit_t : 0.0f;
+const float rt_bu = rt_ok ? wp::sub(wp::sub(1.0f, rt_w1), rt_w2) : rt_third;
+const float rt_bv = rt_ok ? rt_w1 : rt_third;
+"""
+
+#: C++ statements: ``RAY_TRIANGLE_CPP`` from the camera origin ``o``, then ``eh_t``, the hit's
+#: view depth: ``rt_t``, or where the ray grazes the plane (parallel, or no hit in front)
+#: the depth along ``fwd`` (the camera's forward axis) of the barycentric point.
+EXACT_HIT_CPP = (
+    RAY_TRIANGLE_CPP
+    + """
+const bool eh_grazing = !rt_ok || !(rt_t > 0.0f);
+const wp::vec3 eh_p = wp::add(
+    wp::add(wp::mul(p0, rt_bu), wp::mul(p1, rt_bv)), wp::mul(p2, wp::sub(wp::sub(1.0f, rt_bu), rt_bv))
+);
+const float eh_t = eh_grazing ? wp::dot(wp::sub(eh_p, o), fwd) : rt_t;
+"""
+)
+
+
+@wp.func_native(RAY_TRIANGLE_CPP + "return wp::vec4(rt_t, rt_bu, rt_bv, rt_ok ? 1.0f : 0.0f);")
 def ray_triangle(o: wp.vec3, d: wp.vec3, p0: wp.vec3, p1: wp.vec3, p2: wp.vec3) -> wp.vec4:
     """Intersect the ray o + t d with the plane of triangle (p0, p1, p2).
 
     Returns (t, bu, bv, ok) with Warp's barycentric convention (bu weighs p0, bv weighs
-    p1), barycentrics clamped onto the triangle; ok = 0 when the ray is parallel."""
-    e1 = p1 - p0
-    e2 = p2 - p0
-    pv = wp.cross(d, e2)
-    det = wp.dot(e1, pv)
-    if det == 0.0:
-        return wp.vec4(0.0, 1.0 / 3.0, 1.0 / 3.0, 0.0)
-    inv = 1.0 / det
-    tv = o - p0
-    b1 = wp.dot(tv, pv) * inv
-    qv = wp.cross(tv, e1)
-    b2 = wp.dot(d, qv) * inv
-    t = wp.dot(e2, qv) * inv
-    b1 = wp.max(b1, 0.0)
-    b2 = wp.max(b2, 0.0)
-    s = b1 + b2
-    if s > 1.0:
-        b1 = b1 / s
-        b2 = b2 / s
-    return wp.vec4(t, 1.0 - b1 - b2, b1, 1.0)
+    p1), barycentrics clamped onto the triangle; ok = 0 when the ray is parallel
+    (``RAY_TRIANGLE_CPP``)."""
+    ...
+
+
+@wp.func_native(EXACT_HIT_CPP + "return wp::vec3(eh_t, rt_bu, rt_bv);")
+def _exact_hit(o: wp.vec3, fwd: wp.vec3, d: wp.vec3, p0: wp.vec3, p1: wp.vec3, p2: wp.vec3) -> wp.vec3:
+    """(t, bu, bv) of the ray ``o + t d`` on the triangle ``p0, p1, p2`` (``EXACT_HIT_CPP``)."""
+    ...
 
 
 @wp.func(inline=True)
@@ -66,10 +100,4 @@ def exact_hit(scene: SceneGPU, cam: CameraGPU, tri: int, d: wp.vec3) -> wp.vec3:
     """(t, bu, bv) of camera ray ``d`` (unit forward component, so t is the view depth)
     on triangle ``tri``, intersected exactly from the camera origin."""
     pts = triangle_points(scene, tri)
-    h = ray_triangle(cam.origin, d, pts[0], pts[1], pts[2])
-    t = h[0]
-    if h[3] == 0.0 or not (t > 0.0):
-        # Grazing: the ray runs (numerically) in the triangle's plane.
-        p = pts[0] * h[1] + pts[1] * h[2] + pts[2] * (1.0 - h[1] - h[2])
-        t = wp.dot(p - cam.origin, cam.forward)
-    return wp.vec3(t, h[1], h[2])
+    return _exact_hit(cam.origin, cam.forward, d, pts[0], pts[1], pts[2])

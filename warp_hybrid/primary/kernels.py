@@ -12,7 +12,9 @@
   triangle through the trivial frustum rejects, clipping (``clipping.py``) and coverage
   (``coverage.py``) into the per-thread key buffer.
 * ``resolve_kernel`` (per pixel): the smallest key over the key slices names the
-  nearest triangle; ``hit_record.exact_hit`` gives the pixel's hit record.
+  nearest triangle; ``hit_record.exact_hit`` gives the pixel's hit record, in a native
+  row loop vectorised across pixels (the same C++ statements as ``exact_hit`` and
+  ``camera_ray``, so the same bits).
 * ``raycast_kernel`` (per pixel): the reference path, the closest hit through each
   pixel centre from the near plane to the far plane, stepping past cut-away hits, the
   same ``exact_hit`` on the face it finds.  The BVH query is the scene's 4-wide copy
@@ -37,16 +39,17 @@ from __future__ import annotations
 
 import warp as wp
 
-from ..core.camera import CameraGPU, pixel_ray
+from ..core.camera import CAMERA_RAY_CPP, CameraGPU, pixel_ray
 from ..core.constants import luma709
 from ..core.gbuffer import BACKGROUND, GBufferRows, Optics
+from ..core.native_rows import CHUNK_CPP
 from ..core.pixel_list import listed_pixel
 from ..core.scene_gpu import SceneGPU
 from ..scene.device.surface import is_cut_away, samples_textures, surface_at_grad
 from ..scene.device.wide_bvh import WideBVHGPU, WideHit, wide_closest
 from .clipping import ProjectedPoints, in_guard_band, project, raster_clipped, to_camera
 from .coverage import EMPTY_KEY, RasterTarget, raster_triangle
-from .hit_record import exact_hit, pixel_footprint
+from .hit_record import EXACT_HIT_CPP, exact_hit, pixel_footprint
 
 wp.set_module_options({"enable_backward": False})
 
@@ -251,6 +254,90 @@ def _write_surface(gb: GBufferRows, i: int, scene: SceneGPU, cam: CameraGPU, tri
     gb.material_id[i] = h.material
 
 
+# The resolve's row loop: a chunk of pixels at a time, (1) the smallest key over the
+# slices, (2) the corners of each pixel's triangle (a gather, none for an empty key),
+# (3) the camera ray and ``EXACT_HIT_CPP`` in a loop of plain arithmetic over the chunk
+# (no memory access but its own scratch, no branch: the compiler vectorises it across
+# pixels), (4) the hit record, or the background's for an empty key.  Every array
+# it writes is contiguous (``GBufferRows`` views whole buffers).
+_RESOLVE_SPAN_CPP = (
+    CHUNK_CPP
+    + f"""
+const wp::uint64 empty = {int(EMPTY_KEY.value)}ull;
+const wp::vec3* corners = points.data;
+const int* index = indices.data;
+const wp::vec3 o = cam.origin;
+const wp::vec3 fwd = cam.forward;
+const float py = wp::add((float)y, cam.sample[1]);
+const size_t row = (size_t)y * (size_t)cam.width;
+wp::uint64 key[CHUNK];
+float ax[CHUNK], ay[CHUNK], az[CHUNK], bx[CHUNK], by[CHUNK], bz[CHUNK], cx[CHUNK], cy[CHUNK], cz[CHUNK];
+float hit_t[CHUNK], hit_u[CHUNK], hit_v[CHUNK];
+for (int xs = x0; xs < x1; xs += CHUNK) {{
+    const int n = x1 - xs < CHUNK ? x1 - xs : CHUNK;
+    const wp::uint64* first = (const wp::uint64*)((const char*)keys.data + (size_t)y * keys.strides[1]);
+    for (int j = 0; j < n; ++j) key[j] = first[xs + j];
+    for (int s = 1; s < (int)keys.shape[0]; ++s) {{
+        const wp::uint64* slice = (const wp::uint64*)((const char*)first + (size_t)s * keys.strides[0]);
+        for (int j = 0; j < n; ++j) key[j] = wp::min(key[j], slice[xs + j]);
+    }}
+    for (int j = 0; j < n; ++j) {{
+        wp::vec3 a(0.0f), b(0.0f), c(0.0f);
+        if (key[j] != empty) {{
+            const int k = 3 * (int)(key[j] & 0xFFFFFFFFull);
+            a = corners[index[k]];
+            b = corners[index[k + 1]];
+            c = corners[index[k + 2]];
+        }}
+        ax[j] = a[0]; ay[j] = a[1]; az[j] = a[2];
+        bx[j] = b[0]; by[j] = b[1]; bz[j] = b[2];
+        cx[j] = c[0]; cy[j] = c[1]; cz[j] = c[2];
+    }}
+    for (int j = 0; j < n; ++j) {{
+        const float px = wp::add((float)(xs + j), cam.sample[0]);
+        {CAMERA_RAY_CPP}
+        const wp::vec3 d = ray;
+        const wp::vec3 p0(ax[j], ay[j], az[j]);
+        const wp::vec3 p1(bx[j], by[j], bz[j]);
+        const wp::vec3 p2(cx[j], cy[j], cz[j]);
+        {EXACT_HIT_CPP}
+        hit_t[j] = eh_t;
+        hit_u[j] = rt_bu;
+        hit_v[j] = rt_bv;
+    }}
+    int* tri_out = gb.triangle_id.data + row + xs;
+    float* depth_out = gb.depth.data + row + xs;
+    wp::vec2* bary_out = gb.barycentric.data + row + xs;
+    for (int j = 0; j < n; ++j) {{
+        const bool hit = key[j] != empty;
+        tri_out[j] = hit ? (int)(key[j] & 0xFFFFFFFFull) : miss_triangle;
+        depth_out[j] = hit ? hit_t[j] : miss_depth;
+        bary_out[j] = hit ? wp::vec2(hit_u[j], hit_v[j]) : wp::vec2(miss_barycentric);
+    }}
+}}
+"""
+)
+
+
+@wp.func_native(_RESOLVE_SPAN_CPP)
+def _resolve_span(
+    points: wp.array(dtype=wp.vec3),
+    indices: wp.array(dtype=wp.int32),
+    cam: CameraGPU,
+    keys: wp.array3d(dtype=wp.uint64),
+    gb: GBufferRows,
+    miss_triangle: int,
+    miss_depth: float,
+    miss_barycentric: float,
+    y: int,
+    x0: int,
+    x1: int,
+):
+    """The hit records of pixels ``x0 <= x < x1`` of row ``y`` (``_RESOLVE_SPAN_CPP``): the
+    same bits as ``exact_hit`` on ``pixel_ray`` pixel by pixel."""
+    ...
+
+
 @wp.kernel
 def resolve_kernel(
     scene: SceneGPU,
@@ -261,18 +348,26 @@ def resolve_kernel(
     row_step: int,
     cols: int,
 ):
-    """Per pixel: the nearest key over all key slices -> the hit record."""
+    """Per pixel: the nearest key over all key slices -> the hit record (the
+    background's where every slice is empty), in a native row loop."""
     r, c = wp.tid()
     y = row0 + r * row_step
-    for x in range(c * cols, wp.min(c * cols + cols, cam.width)):
-        key = keys[0, y, x]
-        for s in range(1, keys.shape[0]):
-            key = wp.min(key, keys[s, y, x])
-        if key != EMPTY_KEY:
-            tri = int(key & wp.uint64(0xFFFFFFFF))
-            _write_hit_record(gb, y * cam.width + x, tri, exact_hit(scene, cam, tri, pixel_ray(cam, x, y)))
-        else:
-            _write_miss_record(gb, y * cam.width + x)
+    first = c * cols
+    stop = wp.min(first + cols, cam.width)
+    if first < stop:
+        _resolve_span(
+            scene.points,
+            scene.indices,
+            cam,
+            keys,
+            gb,
+            wp.static(int(BACKGROUND["triangle_id"])),
+            wp.static(float(BACKGROUND["depth"])),
+            wp.static(float(BACKGROUND["barycentric"])),
+            y,
+            first,
+            stop,
+        )
 
 
 @wp.func

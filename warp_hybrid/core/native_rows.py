@@ -1,6 +1,6 @@
-"""C++ pieces the post stage's native row loops share (the tone map's in ``kernels.py``,
-FXAA's contrast test in ``aa.py``): how many pixels a loop takes at a time, and a
-pointer to one row of an array."""
+"""C++ pieces the native row loops share (the post stage's tone map, ``post/kernels.py``,
+and FXAA's contrast test, ``post/aa.py``; the raster resolve, ``primary/kernels.py``): how
+many pixels a loop takes at a time, and a pointer to one row of an array."""
 
 from __future__ import annotations
 

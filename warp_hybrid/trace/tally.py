@@ -28,6 +28,51 @@ TALLY_COLUMNS = ("pixels", "shadow", "reflection", "refraction")
 TALLY_BAND_ITEMS = 1 << 16
 
 
+# The tally's loop over a run of items: the pixel's row is computed only when the
+# pixel leaves the last one's (lists run along rows), not by a division per item.
+_TALLY_RUN_CPP = f"""
+const int* list = pixels.data;
+const int columns = (int)counts.shape[1];
+int* slot_table = (int*)((char*)tally.data + (size_t)slot * tally.strides[0]);
+const int tile_row = (int)(tally.strides[1] / sizeof(int));
+const int total = width * height;
+int row_start = 0;
+int y = 0;
+for (int item = first; item < last; ++item) {{
+    const int pixel = list[item];
+    if (pixel < 0 || pixel >= total) continue;
+    if (pixel < row_start || pixel - row_start >= width) {{
+        y = pixel / width;
+        row_start = y * width;
+    }}
+    const int tile = (y / {int(TILE_PX)}) * tiles_x + (pixel - row_start) / {int(TILE_PX)};
+    int* t = slot_table + (size_t)tile * tile_row;
+    const int* c = counts.data + (size_t)item * columns;
+    wp::atomic_add(t, 1);
+    wp::atomic_add(t + 1, c[0] + c[1]);
+    wp::atomic_add(t + 2, c[2]);
+    wp::atomic_add(t + 3, c[3]);
+}}
+"""
+
+
+@wp.func_native(_TALLY_RUN_CPP)
+def _tally_run(
+    pixels: wp.array(dtype=wp.int32),
+    counts: wp.array2d(dtype=wp.int32),
+    width: int,
+    height: int,
+    tiles_x: int,
+    tally: wp.array3d(dtype=wp.int32),
+    slot: int,
+    first: int,
+    last: int,
+):
+    """Items ``first <= item < last`` into tally slot ``slot`` (``_TALLY_RUN_CPP``; the
+    arrays are contiguous)."""
+    ...
+
+
 @wp.kernel
 def tally_tiles(
     pixels: wp.array(dtype=wp.int32),
@@ -43,15 +88,7 @@ def tally_tiles(
 ):
     """The items of this launch item's group of a traced pixel list into tally slot ``slot``."""
     first = start + wp.tid() * group
-    for item in range(first, wp.min(first + group, stop)):
-        pixel = pixels[item]
-        if pixel >= 0 and pixel < width * height:
-            y = pixel // width
-            tile = (y // TILE_PX) * tiles_x + (pixel - y * width) // TILE_PX
-            wp.atomic_add(tally, slot, tile, 0, 1)
-            wp.atomic_add(tally, slot, tile, 1, counts[item, 0] + counts[item, 1])
-            wp.atomic_add(tally, slot, tile, 2, counts[item, 2])
-            wp.atomic_add(tally, slot, tile, 3, counts[item, 3])
+    _tally_run(pixels, counts, width, height, tiles_x, tally, slot, first, wp.min(first + group, stop))
 
 
 @dataclass

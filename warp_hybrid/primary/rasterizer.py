@@ -60,6 +60,21 @@ class Rasterizer(PrimaryVisibility):
         # The coverage pass's bands of clusters, cut where the last frame's cost lay.
         self._cluster_bands = CostBands()
 
+    @property
+    def projected_points(self) -> ProjectedPoints | None:
+        """The last frame's points in camera space and on screen (None before a frame)."""
+        return self._points
+
+    @property
+    def cluster_boxes(self) -> wp.array | None:
+        """The clusters' boxes (clusters, 2) vec3 the last frame culled with (None before)."""
+        return self._bounds
+
+    @property
+    def key_slices(self) -> wp.array | None:
+        """The key buffer (threads, height, width) the last frame rasterized into (None before)."""
+        return self._keys
+
     def _slices(self, height: int, width: int) -> wp.array:
         """The key buffer, one (height, width) slice per thread, reused."""
         shape = (self.launcher.threads, height, width)

@@ -1,0 +1,43 @@
+"""The kernels build for CUDA wherever NVRTC is installed, a GPU or not: the native C++ the
+CPU loops share with the per-pixel funcs (the resolve's and the tally's loops, the tone map,
+FXAA's contrast test, the camera ray, the exact hit, the texture taps) compiles to PTX for
+sm_90 (an H100/H200), so a machine with a GPU does not meet a compile error first.
+Skipped where Warp finds no NVRTC."""
+
+from __future__ import annotations
+
+import pytest
+import warp as wp
+
+import warp_hybrid.lighting.deferred as deferred
+import warp_hybrid.post.kernels as post_kernels
+import warp_hybrid.primary.kernels as primary_kernels
+import warp_hybrid.trace.tally as tally
+from warp_hybrid.core.features import SceneFeatures
+from warp_hybrid.trace.path import path_kernel
+from warp_hybrid.trace.shadows import shadow_kernel
+from warp_hybrid.trace.variant import TraceVariant
+
+ARCH = 90
+
+
+def _modules() -> dict[str, object]:
+    """The modules to build: every module whose kernels carry native C++ of this project's
+    own, and the tracer's largest variant (every effect, as CUDA runs it: Warp's BVH)."""
+    variant = TraceVariant.for_scene(SceneFeatures.all(), shadow_samples=4, wide_bvh=False)
+    return {
+        "primary": primary_kernels,
+        "tally": tally,
+        "post": post_kernels,
+        "lighting": deferred,
+        "path": path_kernel(variant).module,
+        "shadows": shadow_kernel(*variant.shadow_key()).module,
+    }
+
+
+@pytest.mark.parametrize("name", ["primary", "tally", "post", "lighting", "path", "shadows"])
+def test_kernels_compile_for_cuda(name: str, tmp_path) -> None:
+    if ARCH not in wp.get_cuda_supported_archs():
+        pytest.skip(f"NVRTC cannot build for sm_{ARCH} here")
+    built = wp.compile_aot_module(_modules()[name], arch=ARCH, module_dir=tmp_path, use_ptx=True)
+    assert built and all(path.stat().st_size > 0 for path in built)

@@ -11,6 +11,7 @@ import warp as wp
 
 from warp_hybrid.parallel import (
     BANDS_PER_THREAD,
+    FEW_BANDS_PER_THREAD,
     ITEM_GROUP,
     BandLaunch,
     CostBands,
@@ -40,13 +41,16 @@ def _count_items(out: wp.array(dtype=wp.int32), start: int, step: int):
     out[i] = out[i] + 1
 
 
+@pytest.mark.parametrize("per_thread", [BANDS_PER_THREAD, FEW_BANDS_PER_THREAD])
 @pytest.mark.parametrize("threads", [1, 2, 3])
 @pytest.mark.parametrize(("height", "width"), [(1, 1), (2, 5), (7, 3), (48, 33), (481, 2)])
-def test_launch_pixels_covers_each_pixel_once(device: str, threads: int, height: int, width: int) -> None:
+def test_launch_pixels_covers_each_pixel_once(
+    device: str, threads: int, height: int, width: int, per_thread: int
+) -> None:
     out = wp.zeros((height, width), dtype=wp.int32, device=device)
     item_cols = wp.zeros((height, width), dtype=wp.int32, device=device)
     with Launcher(device, threads) as launcher:
-        launcher.launch_pixels(_count_pixels, height, width, [out, item_cols])
+        launcher.launch_pixels(_count_pixels, height, width, [out, item_cols], bands_per_thread=per_thread)
     np.testing.assert_array_equal(out.numpy(), np.ones((height, width), np.int32))
     # the device's shape: a whole row per launch item on the CPU, one pixel on CUDA
     expected_cols = 1 if wp.get_device(device).is_cuda else width
@@ -228,6 +232,8 @@ def test_band_count_follows_the_threads_and_the_minimum_band() -> None:
     assert band_count(5, 2, 4) == 2  # but at least one band per thread
     assert band_count(1, 3, 4) == 1  # and never more bands than rows
     assert band_count(100, 2, 256) == 2
+    assert band_count(480, 2, 4, per_thread=2) == 4  # a short pass of even rows: fewer launches
+    assert band_count(6, 2, 4, per_thread=2) == 2
 
 
 @pytest.mark.parametrize("threads", [1, 2, 3])

@@ -36,6 +36,11 @@ from .launch_profile import LaunchProfile
 # Bands per thread in a CPU pass, and the fewest rows / items a band holds (a launch
 # costs ~20 us of Python, so tiny images and lists are not cut finer than this).
 BANDS_PER_THREAD = 8
+# Bands per thread in a pass whose rows all cost the same and which takes a few ms in
+# all (the log-luminance sums, the tone map): a band's launch is ~35 us of Python taken
+# in turns under the GIL, a fifth of such a pass at 8 bands a thread, and even rows
+# leave little for more bands to balance.
+FEW_BANDS_PER_THREAD = 2
 MIN_BAND_ROWS = 4
 MIN_BAND_ITEMS = 256
 # Consecutive items one CPU launch item takes in a grouped 1-D kernel (``launch_groups``):
@@ -44,14 +49,14 @@ MIN_BAND_ITEMS = 256
 ITEM_GROUP = 16
 
 
-def band_count(total: int, threads: int, minimum: int) -> int:
+def band_count(total: int, threads: int, minimum: int, per_thread: int = BANDS_PER_THREAD) -> int:
     """How many contiguous bands a CPU pass over ``total`` rows or items is cut into
-    for ``threads`` threads: ``BANDS_PER_THREAD`` per thread, but no band under
-    ``minimum`` (unless that leaves fewer bands than threads), and never more bands
-    than rows or items."""
+    for ``threads`` threads: ``per_thread`` per thread, but no band under ``minimum``
+    (unless that leaves fewer bands than threads), and never more bands than rows or
+    items."""
     if threads <= 1:
         return 1
-    return max(1, min(total, max(threads, min(threads * BANDS_PER_THREAD, total // minimum))))
+    return max(1, min(total, max(threads, min(threads * per_thread, total // minimum))))
 
 
 def band(k: int, bands: int, total: int) -> tuple[int, int]:
@@ -221,7 +226,13 @@ class Launcher:
         return [f.result() for f in futures]
 
     def launch_pixels(
-        self, kernel: wp.Kernel, height: int, width: int, inputs: Sequence[Any], rows: tuple[int, int] | None = None
+        self,
+        kernel: wp.Kernel,
+        height: int,
+        width: int,
+        inputs: Sequence[Any],
+        rows: tuple[int, int] | None = None,
+        bands_per_thread: int = BANDS_PER_THREAD,
     ) -> None:
         """Launch a per-pixel kernel in the shape this device wants, from one source.
 
@@ -231,7 +242,8 @@ class Launcher:
         whole row (``cols = width``; the big struct arguments are copied once per row,
         not per pixel) and the rows go out in bands (module docstring); on CUDA an item
         is one pixel (``cols = 1``), one thread each.  ``rows`` (first, stop): only those
-        rows of the ``height`` (default: all of them).
+        rows of the ``height`` (default: all of them).  ``bands_per_thread``: how finely
+        the CPU cuts the rows (``FEW_BANDS_PER_THREAD`` for a short pass of even rows).
         """
         first, stop = (0, height) if rows is None else (max(0, rows[0]), min(height, rows[1]))
         count = stop - first
@@ -248,7 +260,7 @@ class Launcher:
             row0, band_rows = band(k, bands, count)
             run(slot, (band_rows, 1), (first + row0, 1, width), k == 0)
 
-        self.share(launch_band, band_count(count, self.threads, MIN_BAND_ROWS))
+        self.share(launch_band, band_count(count, self.threads, MIN_BAND_ROWS, bands_per_thread))
 
     def launch_items(
         self, kernel: wp.Kernel, count: int, inputs: Sequence[Any], min_band_items: int = MIN_BAND_ITEMS

@@ -20,7 +20,7 @@ import warp as wp
 
 from ..core.passes import FrameContext, RenderPass
 from ..core.rows import NO_ROWS, RowSpan, span_clip, span_grow
-from ..parallel import Launcher
+from ..parallel import FEW_BANDS_PER_THREAD, Launcher
 from ..timing import StageTimer
 from .aa import FXAA_REACH_PX, luma_table
 from .color import make_srgb8_encoder
@@ -113,7 +113,11 @@ class PostProcess(RenderPass):
         buffers["row_sum"].zero_()
         buffers["row_count"].zero_()
         self.launcher.launch_pixels(
-            LOG_LUMINANCE_KERNELS[kind], h, w, [color, mask, buffers["row_sum"], buffers["row_count"]]
+            LOG_LUMINANCE_KERNELS[kind],
+            h,
+            w,
+            [color, mask, buffers["row_sum"], buffers["row_count"]],
+            bands_per_thread=FEW_BANDS_PER_THREAD,
         )
         wp.launch(
             exposure_from_rows,
@@ -207,7 +211,9 @@ class PostProcess(RenderPass):
             else:
                 self.set_exposure(exposure_ev)
             inputs = [color, self._exposure, self._encoder, buffers["ldr"], self._luma_lut, buffers["luma"], *cols]
-            self.launcher.launch_pixels(TONEMAP_KERNELS[(tonemap, aa)], h, w, inputs, rows=rows)
+            self.launcher.launch_pixels(
+                TONEMAP_KERNELS[(tonemap, aa)], h, w, inputs, rows=rows, bands_per_thread=FEW_BANDS_PER_THREAD
+            )
         self._drawn = drawn
         if not aa:
             return buffers["ldr"]

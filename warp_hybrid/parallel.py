@@ -144,8 +144,8 @@ class BandLaunch:
     only its trailing integers and its dimension before it runs.  Packing the struct
     arguments costs ~17 us a launch on the CPU, about a third of a launch's Python time;
     a pass of 16 bands packs them twice.  The integers go in as they are
-    (``set_param_at_index_from_ctype``: no type dispatch), which made a band's launch
-    about 23 us of Python against 38 us before.  A pass makes its own (after a scene update or
+    (``set_param_at_index_from_ctype``: no type dispatch) and the dimension only where
+    it changed, which made a band's launch about 23 us of Python against 38 us before.  A pass makes its own (after a scene update or
     on a new buffer the arguments differ), and one thread slot is only ever used by one
     thread at a time, so the recorded launches are never shared between threads."""
 
@@ -156,19 +156,22 @@ class BandLaunch:
         self.launcher = launcher
         self.kernel = kernel
         self._inputs = inputs
-        self._recorded: dict[int, tuple[Any, int]] = {}
+        # per thread slot: the recorded launch, where its trailing integers start, its dimension
+        self._recorded: dict[int, tuple[Any, int, Any]] = {}
 
     def _run(self, slot: int, dim: Any, tail: Sequence[int]) -> None:
         recorded = self._recorded.get(slot)
         if recorded is None:
             inputs = self._inputs(slot) if callable(self._inputs) else self._inputs
             cmd = wp.launch(self.kernel, dim=dim, inputs=[*inputs, *tail], device=self.launcher.device, record_cmd=True)
-            self._recorded[slot] = (cmd, len(inputs))
+            self._recorded[slot] = (cmd, len(inputs), dim)
         else:
-            cmd, tail_index = recorded
+            cmd, tail_index, last_dim = recorded
             for i, value in enumerate(tail):
                 cmd.set_param_at_index_from_ctype(tail_index + i, value)
-            cmd.set_dim(dim)
+            if dim != last_dim:  # bands of a pass differ by a row at most: mostly the same
+                cmd.set_dim(dim)
+                self._recorded[slot] = (cmd, tail_index, dim)
         cmd.launch()
 
     def __call__(self, slot: int, dim: Any, tail: Sequence[int], first: bool = True) -> None:

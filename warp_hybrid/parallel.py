@@ -69,8 +69,8 @@ def band(k: int, bands: int, total: int) -> tuple[int, int]:
 class CostBands:
     """Contiguous bands over a 1-D range whose boundaries follow what the last pass of the
     same range cost: a pass whose cost piles up in a few places (the coverage pass: the
-    clusters of a staircase's near walls cost 8x the average, a sixteenth of the
-    clusters over half the pass) gets narrow bands there and wide ones elsewhere, so the
+    first sixteenth of the staircase's clusters costs 8-9x the average, over half
+    the pass) gets narrow bands there and wide ones elsewhere, so the
     threads taking bands finish together.  ``spans`` gives the bands for a pass,
     ``measured`` takes each band's cost afterwards (its thread's CPU time: a band's cost
     spread evenly over its items); the next pass cuts the range into bands of equal

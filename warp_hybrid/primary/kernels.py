@@ -270,12 +270,12 @@ const wp::vec3 o = cam.origin;
 const wp::vec3 fwd = cam.forward;
 const float py = wp::add((float)y, cam.sample[1]);
 const size_t row = (size_t)y * (size_t)cam.width;
+const wp::uint64* first = (const wp::uint64*)((const char*)keys.data + (size_t)y * keys.strides[1]);
 wp::uint64 key[CHUNK];
 float ax[CHUNK], ay[CHUNK], az[CHUNK], bx[CHUNK], by[CHUNK], bz[CHUNK], cx[CHUNK], cy[CHUNK], cz[CHUNK];
 float hit_t[CHUNK], hit_u[CHUNK], hit_v[CHUNK];
 for (int xs = x0; xs < x1; xs += CHUNK) {{
     const int n = x1 - xs < CHUNK ? x1 - xs : CHUNK;
-    const wp::uint64* first = (const wp::uint64*)((const char*)keys.data + (size_t)y * keys.strides[1]);
     for (int j = 0; j < n; ++j) key[j] = first[xs + j];
     for (int s = 1; s < (int)keys.shape[0]; ++s) {{
         const wp::uint64* slice = (const wp::uint64*)((const char*)first + (size_t)s * keys.strides[0]);

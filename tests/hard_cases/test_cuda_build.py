@@ -21,23 +21,23 @@ from warp_hybrid.trace.variant import TraceVariant
 ARCH = 90
 
 
-def _modules() -> dict[str, object]:
-    """The modules to build: every module whose kernels carry native C++ of this project's
-    own, and the tracer's largest variant (every effect, as CUDA runs it: Warp's BVH)."""
-    variant = TraceVariant.for_scene(SceneFeatures.all(), shadow_samples=4, wide_bvh=False)
-    return {
-        "primary": primary_kernels,
-        "tally": tally,
-        "post": post_kernels,
-        "lighting": deferred,
-        "path": path_kernel(variant).module,
-        "shadows": shadow_kernel(*variant.shadow_key()).module,
-    }
+_VARIANT = TraceVariant.for_scene(SceneFeatures.all(), shadow_samples=4, wide_bvh=False)
+#: What to build: the modules that hold the project's native loops (every other module
+#: takes its native C++, the camera ray for one, from the same sources), and the tracer's
+#: largest variant (every effect, as CUDA runs it: Warp's own BVH queries).
+MODULES = {
+    "primary": primary_kernels,
+    "tally": tally,
+    "post": post_kernels,
+    "lighting": deferred,
+    "path": path_kernel(_VARIANT).module,
+    "shadows": shadow_kernel(*_VARIANT.shadow_key()).module,
+}
 
 
-@pytest.mark.parametrize("name", ["primary", "tally", "post", "lighting", "path", "shadows"])
+@pytest.mark.parametrize("name", list(MODULES))
 def test_kernels_compile_for_cuda(name: str, tmp_path) -> None:
     if ARCH not in wp.get_cuda_supported_archs():
         pytest.skip(f"NVRTC cannot build for sm_{ARCH} here")
-    built = wp.compile_aot_module(_modules()[name], arch=ARCH, module_dir=tmp_path, use_ptx=True)
+    built = wp.compile_aot_module(MODULES[name], arch=ARCH, module_dir=tmp_path, use_ptx=True)
     assert built and all(path.stat().st_size > 0 for path in built)

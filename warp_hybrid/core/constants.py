@@ -40,12 +40,12 @@ def mirror_share(roughness: float) -> float:
 #: Smallest GGX alpha (= roughness^2): a perfectly smooth surface still has a lobe.
 ALPHA_MIN = wp.constant(1.0e-3)
 
-_Y_R = wp.constant(LUMA_709[0])
-_Y_G = wp.constant(LUMA_709[1])
-_Y_B = wp.constant(LUMA_709[2])
+#: C++ expression: ``luma709`` of the ``wp::vec3`` named ``c`` (the one formula: the func
+#: below and ``lighting/native_math.py`` paste it).
+LUMA_709_CPP = f"{LUMA_709[0]!r}f * c[0] + {LUMA_709[1]!r}f * c[1] + {LUMA_709[2]!r}f * c[2]"
 
 
-@wp.func(inline=True)
+@wp.func_native(f"return {LUMA_709_CPP};")
 def luma709(c: wp.vec3) -> float:
     """Rec. 709 luminance of linear RGB (``LUMA_709``)."""
-    return _Y_R * c[0] + _Y_G * c[1] + _Y_B * c[2]
+    ...

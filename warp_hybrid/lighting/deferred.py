@@ -21,10 +21,11 @@ planned window the raster layer is already there.
 
 CPU performance notes: the kernel follows ``Launcher.launch_pixels`` (one launch item
 per row on the CPU, so the big ``SceneGPU``/``AmbientGPU`` arguments are copied once
-per row; one thread per pixel on CUDA); every shading function is
-``@wp.func(inline=True)`` (out of line, each call would copy its struct arguments),
-with rare heavy paths (spot cones, horizon-crossing rect lights) kept out of line; and
-the module compiles with FMA contraction.
+per row; one thread per pixel on CUDA).  Without shadow maps the lights' direct term of
+an item's pixels comes first, from a native row loop vectorised across pixels
+(``direct_rows.direct_span``, written into ``color_out`` and read back by the per-pixel
+loop, which adds the rest); with them each light's term is the scalar ``direct_light``
+times its visibility.  The module compiles with FMA contraction.
 """
 
 from __future__ import annotations
@@ -42,6 +43,7 @@ from ..parallel import Launcher
 from ..scene.device import DeviceScene
 from ..scene.device.environment import environment_radiance
 from ..timing import StageTimer
+from .direct_rows import direct_span
 from .probe_kernels import ProbeGPU, probe_specular
 from .shading import diffuse_albedo, direct_light, shade_surface, shade_surface_with
 from .shadow_map_kernels import ShadowMapsGPU, shadow_visibility
@@ -75,8 +77,10 @@ def _make_shade_kernel(shadowed: bool, probed: bool = False) -> wp.Kernel:
         probe: ProbeGPU,
         x: int,
         y: int,
+        unshadowed: wp.vec3,
     ) -> wp.vec3:
-        """Outgoing radiance of pixel (x, y)."""
+        """Outgoing radiance of pixel (x, y); without shadow maps ``unshadowed`` is the
+        pixel's direct light (``direct_rows.direct_span``), with them it is ignored."""
         if gb.triangle_id[y, x] < 0:
             return environment_radiance(scene, pixel_ray(cam, x, y))  # any length will do
         p = gb.position[y, x]
@@ -90,14 +94,14 @@ def _make_shade_kernel(shadowed: bool, probed: bool = False) -> wp.Kernel:
         base = gb.albedo[y, x]
         f0 = gb.specular[y, x]
         kd = diffuse_albedo(scene, n, v, base, opt.opacity, opt.ior, flags)
-        direct = wp.vec3(0.0, 0.0, 0.0)
-        for i in range(scene.light_count):
-            c = direct_light(scene, i, p, n, v, kd, f0, opt.roughness)
-            if wp.static(shadowed):
+        direct = unshadowed
+        if wp.static(shadowed):
+            for i in range(scene.light_count):
+                c = direct_light(scene, i, p, n, v, kd, f0, opt.roughness)
                 if c[0] > 0.0 or c[1] > 0.0 or c[2] > 0.0:
                     transmissive = (flags & FLAG_TRANSMISSIVE) != 0
                     c = c * shadow_visibility(scene, sm, i, p, gb.geometric_normal[y, x], transmissive)
-            direct += c
+                direct += c
         if wp.static(probed):
             specular = probe_specular(scene, amb, probe, p, n, v, f0, opt.roughness)
             return shade_surface_with(
@@ -121,8 +125,16 @@ def _make_shade_kernel(shadowed: bool, probed: bool = False) -> wp.Kernel:
     ):
         r, c = wp.tid()
         y = row0 + r * row_step
-        for x in range(c * cols, wp.min(c * cols + cols, cam.width)):
-            color_out[y, x] = shade_pixel(scene, amb, cam, gb, sm, probe, x, y)
+        first = c * cols
+        stop = wp.min(first + cols, cam.width)
+        if wp.static(not shadowed):
+            if first < stop:
+                direct_span(scene, cam, gb, color_out, y, first, stop)
+        for x in range(first, stop):
+            unshadowed = wp.vec3(0.0, 0.0, 0.0)
+            if wp.static(not shadowed):
+                unshadowed = color_out[y, x]
+            color_out[y, x] = shade_pixel(scene, amb, cam, gb, sm, probe, x, y, unshadowed)
 
     if shadowed or probed:
         options = {"enable_backward": False, "cpu_compiler_flags": _CPU_FLAGS}

@@ -1,5 +1,8 @@
 """Incident light from one UsdLux light at a shading point (``@wp.func``).
 
+The arithmetic is ``native_math``'s C++ (``wh_light_sample``), the one implementation the
+scalar functions here and the deferred pass's row loop (``direct_rows.py``) share.
+
 ``light_sample(light, p, n)`` returns a ``LightSample``: the unit direction ``wi``
 from ``p`` toward the light's centre, the ``distance`` to it (inf for a distant
 light; a shadow ray stops there), and two irradiance terms:
@@ -44,18 +47,15 @@ Per kind:
 
 from __future__ import annotations
 
-import math
-
 import warp as wp
 
-from ..core.constants import PI
 from ..core.scene_gpu import LightGPU
 from ..scene.model import LightKind
+from .native_math import cpp
 
 KIND_DISTANT = wp.constant(int(LightKind.DISTANT))
 KIND_SPHERE = wp.constant(int(LightKind.SPHERE))
 KIND_RECT = wp.constant(int(LightKind.RECT))
-INFINITY = wp.constant(math.inf)
 
 
 @wp.struct
@@ -68,214 +68,54 @@ class LightSample:
     irradiance: wp.vec3
 
 
-@wp.func(inline=False)
-def _cone_falloff(light: LightGPU, wi: wp.vec3) -> float:
-    """The ShapingAPI smoothstep for a light with a cone (the rare path of ``cone_factor``)."""
-    cos_theta = -wp.dot(light.direction, wi)
-    outer = wp.acos(wp.clamp(light.cos_cone, -1.0, 1.0))
-    cos_inner = wp.cos(outer * (1.0 - wp.clamp(light.cone_softness, 0.0, 1.0)))
-    if cos_theta >= cos_inner:
-        return 1.0
-    if cos_theta <= light.cos_cone:
-        return 0.0
-    t = (cos_theta - light.cos_cone) / (cos_inner - light.cos_cone)
-    return t * t * (3.0 - 2.0 * t)
-
-
-@wp.func(inline=True)
-def cone_factor(light: LightGPU, wi: wp.vec3) -> float:
-    """ShapingAPI cone falloff for the ray leaving the light toward the point (-wi)."""
-    if light.cos_cone <= -1.0 + 1.0e-6:
-        return 1.0
-    return _cone_falloff(light, wi)
-
-
-@wp.func(inline=True)
+@wp.func_native(cpp("subtended_angle") + "return wh_subtended_angle(s, c);")
 def subtended_angle(s: float, c: float) -> float:
     """atan2(s, c) for s >= 0, in [0, pi]: a degree-11 odd minimax polynomial for atan
     on [0, 1] (the Cg reference coefficients; absolute error < 1e-5 rad, relative error
     < 5e-6 near 0), several times cheaper than libm's atan2 on the CPU.  Branch-free
     (selects only), so the compiler can evaluate several of them in SIMD lanes."""
-    ac = wp.abs(c)
-    steep = s > ac
-    hi = wp.where(steep, s, ac)
-    t = wp.where(steep, ac, s) / hi
-    t2 = t * t
-    p = -0.013480470
-    p = p * t2 + 0.057477314
-    p = p * t2 - 0.121239071
-    p = p * t2 + 0.195635925
-    p = p * t2 - 0.332994597
-    p = p * t2 + 0.999995630
-    r = p * t
-    r = wp.where(steep, 1.570796327 - r, r)
-    r = wp.where(c < 0.0, 3.141592654 - r, r)
-    return wp.where(hi > 0.0, r, 0.0)
+    ...
 
 
-@wp.func(inline=True)
-def _edge_term(a: wp.vec3, b: wp.vec3, n: wp.vec3) -> float:
-    """theta * (n . gamma) for the edge a -> b seen from the origin (a, b any length).
-
-    The subtended angle is atan2(|a x b|, a.b), accurate for tiny edges."""
-    c = wp.cross(a, b)
-    lc = wp.sqrt(wp.dot(c, c))
-    return wp.where(lc > 0.0, subtended_angle(lc, wp.dot(a, b)) * wp.dot(c, n) / lc, 0.0)
+#: ``_light_terms``' result: rows ``wi``, ``(distance, 0, 0)``, ``e_normal``, ``irradiance``
+#: (a native function returns no struct).
+_LightTerms = wp.types.matrix(shape=(4, 3), dtype=wp.float32)
 
 
-@wp.func(inline=True)
-def _horizon_point(a: wp.vec3, b: wp.vec3, ha: float, hb: float) -> wp.vec3:
-    """The point of segment a-b on the horizon plane (heights ha > 0 >= hb or reverse)."""
-    t = ha / (ha - hb)
-    return a + (b - a) * t
-
-
-@wp.func(inline=False)
-def quad_edge_sum(q0: wp.vec3, q1: wp.vec3, q2: wp.vec3, q3: wp.vec3, n: wp.vec3) -> float:
-    """sum_i theta_i (n . gamma_i) over the quad q0..q3 (relative to the shading point)
-    clipped to the half space n.x >= 0 (Sutherland-Hodgman on a convex polygon: at
-    most one exit and one entry, joined by an edge along the horizon).  The general
-    (and, for a rect light, the rare horizon-crossing) path, kept out of line."""
-    total = float(0.0)
-    exit_pt = wp.vec3(0.0, 0.0, 0.0)
-    entry_pt = wp.vec3(0.0, 0.0, 0.0)
-    inside = int(0)
-    for k in range(4):
-        a = q0
-        b = q1
-        if k == 1:
-            a = q1
-            b = q2
-        elif k == 2:
-            a = q2
-            b = q3
-        elif k == 3:
-            a = q3
-            b = q0
-        ha = wp.dot(n, a)
-        hb = wp.dot(n, b)
-        if ha > 0.0:
-            inside += 1
-            if hb > 0.0:
-                total += _edge_term(a, b, n)
-            else:
-                exit_pt = _horizon_point(a, b, ha, hb)
-                total += _edge_term(a, exit_pt, n)
-        elif hb > 0.0:
-            entry_pt = _horizon_point(a, b, ha, hb)
-            total += _edge_term(entry_pt, b, n)
-    if inside == 0:
-        return 0.0
-    if inside < 4:
-        total += _edge_term(exit_pt, entry_pt, n)
-    return total
-
-
-@wp.func(inline=True)
-def _rect_edge(c: wp.vec3, a_dot_b: float, n: wp.vec3) -> float:
-    """``_edge_term`` of an edge given ``c`` = a x b and a.b (both at any common positive
-    scale, which leaves the term unchanged)."""
-    lc = wp.sqrt(wp.dot(c, c))
-    return wp.where(lc > 0.0, subtended_angle(lc, a_dot_b) * wp.dot(c, n) / lc, 0.0)
-
-
-@wp.func(inline=True)
-def rect_edge_sum(d: wp.vec3, u: wp.vec3, v: wp.vec3, n: wp.vec3) -> float:
-    """``quad_edge_sum`` over the rectangle with centre ``d`` (relative to the shading
-    point) and half axes ``u``, ``v`` (corners d - u - v, d + u - v, d + u + v, d - u + v).
-
-    Wholly above the horizon (the common case) the edges' cross and dot products factor
-    through d x u and d x v: with z = u x v the edge a_i -> a_i+1 has
-    a x b = 2 (z + d x u), 2 (z + d x v), 2 (z - d x u), 2 (z - d x v) and
-    a.b = |d - v|^2 - |u|^2, |d + u|^2 - |v|^2, |d + v|^2 - |u|^2, |d - u|^2 - |v|^2
-    (used at half scale); four straight-line, branch-free edge terms."""
-    dn = wp.dot(d, n)
-    un = wp.dot(u, n)
-    vn = wp.dot(v, n)
-    if dn - un - vn > 0.0 and dn + un - vn > 0.0 and dn + un + vn > 0.0 and dn - un + vn > 0.0:
-        z = wp.cross(u, v)
-        xu = wp.cross(d, u)
-        xv = wp.cross(d, v)
-        half_dd = 0.5 * wp.dot(d, d)
-        half_k = 0.5 * (wp.dot(v, v) - wp.dot(u, u))
-        du = wp.dot(d, u)
-        dv = wp.dot(d, v)
-        total = _rect_edge(z + xu, half_dd - dv + half_k, n)
-        total += _rect_edge(z + xv, half_dd + du - half_k, n)
-        total += _rect_edge(z - xu, half_dd + dv + half_k, n)
-        total += _rect_edge(z - xv, half_dd - du - half_k, n)
-        return total
-    return quad_edge_sum(d - u - v, d + u - v, d + u + v, d - u + v, n)
-
-
-@wp.func(inline=True)
-def rect_irradiance_factor(p: wp.vec3, n: wp.vec3, light: LightGPU) -> float:
-    """E / L for a one-sided rect light at ``p`` with normal ``n`` (pi times the form
-    factor of the horizon-clipped rectangle; dimensionless, in [0, pi])."""
-    d = light.position - p
-    if wp.dot(d, light.direction) >= 0.0:
-        return 0.0
-    u = light.axis_u
-    v = light.axis_v
-    s = rect_edge_sum(d, u, v, n)
-    if wp.dot(wp.cross(u, v), light.direction) > 0.0:
-        s = -s
-    return wp.clamp(0.5 * s, 0.0, PI)
+@wp.func_native(
+    cpp("light_sample")
+    + """
+wp::vec3 wi, e_normal, irradiance;
+float distance;
+const bool has_cone = wh_has_cone(light);
+wh_light_sample(light, light.kind, has_cone, has_cone ? wh_cone_inner(light) : 0.0f, p, n, exact, WH_RECT_ANY, wi,
+                distance,
+                e_normal, irradiance);
+wp::mat_t<4, 3, float> rows;
+for (int i = 0; i < 3; ++i) {
+    rows.data[0][i] = wi[i];
+    rows.data[1][i] = i == 0 ? distance : 0.0f;
+    rows.data[2][i] = e_normal[i];
+    rows.data[3][i] = irradiance[i];
+}
+return rows;
+"""
+)
+def _light_terms(light: LightGPU, p: wp.vec3, n: wp.vec3, exact: bool) -> _LightTerms:
+    """``_light_sample``'s values as the rows of a matrix."""
+    ...
 
 
 @wp.func(inline=True)
 def _light_sample(light: LightGPU, p: wp.vec3, n: wp.vec3, exact: bool) -> LightSample:
     """``light_sample``; without ``exact`` a rect light's irradiance is its exact value only
     where the centre terms leave ``light_reaches`` undecided (``reach_sample``)."""
+    rows = _light_terms(light, p, n, exact)
     out = LightSample()
-    zero = wp.vec3(0.0, 0.0, 0.0)
-    if light.kind == KIND_DISTANT:
-        out.wi = -light.direction
-        out.distance = INFINITY
-        out.e_normal = light.color
-        out.irradiance = light.color * wp.max(wp.dot(n, out.wi), 0.0)
-        return out
-    to_light = light.position - p
-    d2 = wp.dot(to_light, to_light)
-    d = wp.sqrt(d2)
-    wi = wp.vec3(0.0, 0.0, 1.0)
-    if d > 0.0:
-        wi = to_light / d
-    out.wi = wi
-    out.distance = d
-    cos_n = wp.max(wp.dot(n, wi), 0.0)
-    cone = cone_factor(light, wi)
-    if light.kind == KIND_SPHERE:
-        r2 = light.radius * light.radius
-        e = zero
-        if r2 > 0.0:
-            scale = PI * r2
-            if light.normalize != 0:
-                scale = 0.25
-            e = light.color * (scale / wp.max(d2, r2))
-        else:
-            e = light.color * (1.0 / wp.max(d2, 1.0e-20))
-        out.e_normal = e * cone
-        out.irradiance = out.e_normal * cos_n
-        return out
-    # rect and disk: one-sided planar emitters facing `direction`
-    area = float(0.0)
-    if light.kind == KIND_RECT:
-        area = 4.0 * wp.length(wp.cross(light.axis_u, light.axis_v))
-    else:
-        area = PI * wp.length(wp.cross(light.axis_u, light.axis_v))
-        if area <= 0.0:
-            area = PI * light.radius * light.radius
-    radiance = light.color
-    if light.normalize != 0 and area > 0.0:
-        radiance = light.color / area
-    cos_e = wp.max(-wp.dot(light.direction, wi), 0.0)
-    point_factor = wp.min(area * cos_e / wp.max(d2, 1.0e-20), PI)
-    out.e_normal = radiance * (point_factor * cone)
-    out.irradiance = out.e_normal * cos_n
-    if light.kind == KIND_RECT:
-        if exact or not _centre_reaches(out.e_normal, cos_n):
-            out.irradiance = radiance * (rect_irradiance_factor(p, n, light) * cone)
+    out.wi = wp.vec3(rows[0, 0], rows[0, 1], rows[0, 2])
+    out.distance = rows[1, 0]
+    out.e_normal = wp.vec3(rows[2, 0], rows[2, 1], rows[2, 2])
+    out.irradiance = wp.vec3(rows[3, 0], rows[3, 1], rows[3, 2])
     return out
 
 
@@ -296,10 +136,10 @@ def reach_sample(light: LightGPU, p: wp.vec3, n: wp.vec3) -> LightSample:
     return _light_sample(light, p, n, False)
 
 
-@wp.func(inline=True)
+@wp.func_native(cpp("centre_reaches") + "return wh_centre_reaches(e_normal, n_dot_l);")
 def _centre_reaches(e_normal: wp.vec3, n_dot_l: float) -> bool:
     """The light's centre lies above the horizon of ``p`` and gives it light."""
-    return n_dot_l > 0.0 and wp.max(e_normal[0], wp.max(e_normal[1], e_normal[2])) > 0.0
+    ...
 
 
 @wp.func(inline=True)

@@ -40,19 +40,19 @@ import warp as wp
 from ..core.scene_gpu import FLAG_TRANSMISSIVE, AmbientGPU, SceneGPU
 from ..scene.device.environment import environment_radiance
 from .ambient import ambient_diffuse, ambient_specular
-from .brdf import COS_EPS, brdf_diffuse, brdf_specular, fresnel_dielectric
+from .brdf import fresnel_dielectric
 from .lights import LightSample, light_sample
+from .native_math import COS_EPS, cpp
 
 
-@wp.func(inline=True)
+@wp.func_native(
+    cpp("light_response")
+    + "return wh_light_response(true, ls.wi, ls.e_normal, ls.irradiance, n, v, kd, f0, roughness);"
+)
 def light_response(ls: LightSample, n: wp.vec3, v: wp.vec3, kd: wp.vec3, f0: wp.vec3, roughness: float) -> wp.vec3:
     """Unshadowed radiance toward ``v`` due to one light sample: the diffuse lobe times
     the surface irradiance plus the specular lobe times ``e_normal * max(n.wi, 0)``."""
-    diffuse = wp.cw_mul(brdf_diffuse(n, v, ls.wi, kd, f0), ls.irradiance)
-    n_dot_l = wp.dot(n, ls.wi)
-    if n_dot_l <= 0.0:
-        return diffuse
-    return diffuse + wp.cw_mul(brdf_specular(n, v, ls.wi, f0, roughness), ls.e_normal) * n_dot_l
+    ...
 
 
 @wp.func(inline=True)
@@ -63,19 +63,21 @@ def direct_light(
     return light_response(light_sample(scene.lights[light_index], p, n), n, v, kd, f0, roughness)
 
 
+@wp.func_native(cpp("diffuse_albedo") + "return wh_diffuse_albedo(true, dome, n, v, albedo, opacity, ior, flags);")
+def _diffuse_albedo(
+    dome: bool, n: wp.vec3, v: wp.vec3, albedo: wp.vec3, opacity: float, ior: float, flags: int
+) -> wp.vec3:
+    """``diffuse_albedo`` given whether the scene has a dome."""
+    ...
+
+
 @wp.func(inline=True)
 def diffuse_albedo(
     scene: SceneGPU, n: wp.vec3, v: wp.vec3, albedo: wp.vec3, opacity: float, ior: float, flags: int
 ) -> wp.vec3:
     """The diffuse colour that lights and the dome see (``albedo`` for opaque materials;
     see the module docstring for transmissive ones)."""
-    if (flags & FLAG_TRANSMISSIVE) == 0:
-        return albedo
-    o = wp.clamp(opacity, 0.0, 1.0)
-    if scene.environment.enabled != 0:
-        return albedo * o
-    f = fresnel_dielectric(wp.max(wp.dot(n, v), COS_EPS), ior)
-    return albedo * (o + (1.0 - o) * (1.0 - f))
+    return _diffuse_albedo(scene.environment.enabled != 0, n, v, albedo, opacity, ior, flags)
 
 
 @wp.func(inline=True)

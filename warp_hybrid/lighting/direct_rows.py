@@ -1,0 +1,124 @@
+"""The deferred pass's direct light as a native row loop: every light's unshadowed
+response (``shading.direct_light``, summed over the scene's lights) for a span of one
+row, across pixels.
+
+The loop takes ``CHUNK_CPU`` pixels at a time: (1) a gather of the pixels' G-buffer
+channels and material flags, (2) the view direction and the diffuse colour
+(``wh_diffuse_albedo``), then for each light (3) its sample and response
+(``native_math``) as straight-line arithmetic over the chunk, the light's kind a literal
+and its cone decided once (the compiler vectorises this across pixels; a rect light's
+chunk takes the short path where the rectangle lies above every pixel's horizon, the
+clipped polygon where it lies above none, both and a choice per pixel where it is
+mixed), and (4) the sum.  The same lambdas as the scalar
+functions, so the same arithmetic; background pixels get a value the caller ignores.
+"""
+
+from __future__ import annotations
+
+import warp as wp
+
+from ..core.camera import CameraGPU
+from ..core.gbuffer import GBufferArrays
+from ..core.native_rows import CHUNK_CPP, row_cpp
+from ..core.scene_gpu import SceneGPU
+from .native_math import cpp
+
+_DIRECT_SPAN_CPP = (
+    CHUNK_CPP
+    + cpp("light_sample", "light_response", "diffuse_albedo")
+    + f"""
+const wp::vec3* position = {row_cpp("gb.position", "y", "wp::vec3")};
+const wp::vec3* normal = {row_cpp("gb.normal", "y", "wp::vec3")};
+const wp::vec3* albedo = {row_cpp("gb.albedo", "y", "wp::vec3")};
+const wp::vec3* specular = {row_cpp("gb.specular", "y", "wp::vec3")};
+const int* material = {row_cpp("gb.material_id", "y", "int")};
+const auto optics = (decltype(gb.optics.data))((char*)gb.optics.data + (size_t)y * gb.optics.strides[0]);
+wp::vec3* out = {row_cpp("direct_out", "y", "wp::vec3", const=False)};
+const bool dome = scene.environment.enabled != 0;
+const wp::vec3 eye = cam.origin;
+float px[CHUNK], py[CHUNK], pz[CHUNK], nx[CHUNK], ny[CHUNK], nz[CHUNK], vx[CHUNK], vy[CHUNK], vz[CHUNK];
+float kr[CHUNK], kg[CHUNK], kb[CHUNK], fr[CHUNK], fg[CHUNK], fb[CHUNK], rough[CHUNK], opac[CHUNK], ior[CHUNK];
+float dr[CHUNK], dg[CHUNK], db[CHUNK], cr[CHUNK], cg[CHUNK], cb[CHUNK];
+int flags[CHUNK];
+for (int xs = x0; xs < x1; xs += CHUNK) {{
+    const int n = x1 - xs < CHUNK ? x1 - xs : CHUNK;
+    for (int j = 0; j < n; ++j) {{
+        const int x = xs + j;
+        const wp::vec3 p = position[x], nn = normal[x], a = albedo[x], f = specular[x];
+        px[j] = p[0]; py[j] = p[1]; pz[j] = p[2];
+        nx[j] = nn[0]; ny[j] = nn[1]; nz[j] = nn[2];
+        kr[j] = a[0]; kg[j] = a[1]; kb[j] = a[2];
+        fr[j] = f[0]; fg[j] = f[1]; fb[j] = f[2];
+        rough[j] = optics[x].roughness;
+        opac[j] = optics[x].opacity;
+        ior[j] = optics[x].ior;
+        const int mid = material[x];
+        flags[j] = mid >= 0 ? scene.materials.data[mid].flags : 0;
+    }}
+    for (int j = 0; j < n; ++j) {{
+        const wp::vec3 nn(nx[j], ny[j], nz[j]);
+        const wp::vec3 v = wh_normalize(wp::sub(eye, wp::vec3(px[j], py[j], pz[j])));
+        const wp::vec3 kd = wh_diffuse_albedo(false, dome, nn, v, wp::vec3(kr[j], kg[j], kb[j]), opac[j], ior[j], flags[j]);
+        vx[j] = v[0]; vy[j] = v[1]; vz[j] = v[2];
+        kr[j] = kd[0]; kg[j] = kd[1]; kb[j] = kd[2];
+        dr[j] = 0.0f; dg[j] = 0.0f; db[j] = 0.0f;
+    }}
+    for (int li = 0; li < scene.light_count; ++li) {{
+        const auto light = scene.lights.data[li];
+        const bool has_cone = wh_has_cone(light);
+        const float cos_inner = has_cone ? wh_cone_inner(light) : 0.0f;
+        auto lane = [&](const int kind, const int rect_path, const int j) WH_INLINE {{
+            const wp::vec3 p(px[j], py[j], pz[j]);
+            const wp::vec3 nn(nx[j], ny[j], nz[j]);
+            wp::vec3 wi, e_normal, irradiance;
+            float distance;
+            wh_light_sample(light, kind, has_cone, cos_inner, p, nn, true, rect_path, wi, distance, e_normal,
+                            irradiance);
+            const wp::vec3 c = wh_light_response(false, wi, e_normal, irradiance, nn, wp::vec3(vx[j], vy[j], vz[j]),
+                                                 wp::vec3(kr[j], kg[j], kb[j]), wp::vec3(fr[j], fg[j], fb[j]), rough[j]);
+            cr[j] = c[0]; cg[j] = c[1]; cb[j] = c[2];
+        }};
+        if (light.kind == WH_DISTANT) {{
+            for (int j = 0; j < n; ++j) lane(WH_DISTANT, WH_RECT_ANY, j);
+        }} else if (light.kind == WH_SPHERE) {{
+            for (int j = 0; j < n; ++j) lane(WH_SPHERE, WH_RECT_ANY, j);
+        }} else if (light.kind == WH_RECT) {{
+            int above = 0;
+            for (int j = 0; j < n; ++j) {{
+                above += wh_rect_above(wp::sub(light.position, wp::vec3(px[j], py[j], pz[j])), light.axis_u,
+                                       light.axis_v, wp::vec3(nx[j], ny[j], nz[j])) ? 1 : 0;
+            }}
+            if (above == n) {{
+                for (int j = 0; j < n; ++j) lane(WH_RECT, WH_RECT_ABOVE, j);
+            }} else if (above == 0) {{
+                for (int j = 0; j < n; ++j) lane(WH_RECT, WH_RECT_CLIPPED, j);
+            }} else {{
+                for (int j = 0; j < n; ++j) lane(WH_RECT, WH_RECT_ANY, j);
+            }}
+        }} else {{
+            for (int j = 0; j < n; ++j) lane(-1, WH_RECT_ANY, j);
+        }}
+        for (int j = 0; j < n; ++j) {{
+            dr[j] += cr[j]; dg[j] += cg[j]; db[j] += cb[j];
+        }}
+    }}
+    for (int j = 0; j < n; ++j) out[xs + j] = wp::vec3(dr[j], dg[j], db[j]);
+}}
+"""
+)
+
+
+@wp.func_native(_DIRECT_SPAN_CPP)
+def direct_span(
+    scene: SceneGPU,
+    cam: CameraGPU,
+    gb: GBufferArrays,
+    direct_out: wp.array2d(dtype=wp.vec3),
+    y: int,
+    x0: int,
+    x1: int,
+):
+    """Into ``direct_out[y, x]`` for ``x0 <= x < x1``: the sum over the scene's lights of
+    each one's unshadowed response at the pixel's G-buffer point (``shading.direct_light``
+    with ``shading.diffuse_albedo``'s colour), pixel by pixel the same arithmetic."""
+    ...

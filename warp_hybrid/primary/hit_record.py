@@ -14,14 +14,27 @@ from ..core.camera import CameraGPU, sample_spread
 from ..core.scene_gpu import SceneGPU
 from ..scene.device.surface import uv_footprint
 
+#: ``sample_steps``' result: the rows ddx, ddy.
+SampleSteps = wp.types.matrix(shape=(2, 3), dtype=wp.float32)
+
+
+@wp.func(inline=True)
+def sample_steps(cam: CameraGPU) -> SampleSteps:
+    """How a camera ray's direction moves for one sample step right (row 0) and one down
+    (row 1): one pixel, unless the frame is supersampled (``CameraGPU.sample_step``)."""
+    spread = sample_spread(cam)
+    ddx = cam.right * spread[0]
+    ddy = cam.up * (-spread[1])
+    return SampleSteps(ddx[0], ddx[1], ddx[2], ddy[0], ddy[1], ddy[2])
+
 
 @wp.func(inline=True)
 def pixel_footprint(scene: SceneGPU, cam: CameraGPU, tri: int, d: wp.vec3) -> wp.vec4:
     """uv footprint (du/dx, dv/dx, du/dy, dv/dy) on triangle ``tri`` of the pixel sample
     whose camera ray is ``d``: the ray differentials of one sample step right and down
-    (one pixel, unless the frame is supersampled: ``CameraGPU.sample_step``)."""
-    spread = sample_spread(cam)
-    return uv_footprint(scene, tri, cam.origin, d, cam.right * spread[0], cam.up * (-spread[1]))
+    (``sample_steps``)."""
+    steps = sample_steps(cam)
+    return uv_footprint(scene, tri, cam.origin, d, steps[0], steps[1])
 
 
 #: C++ statements: the ray ``o + t d`` against the plane of the triangle ``p0, p1, p2``

@@ -45,11 +45,11 @@ from ..core.gbuffer import BACKGROUND, GBufferRows, Optics
 from ..core.native_rows import CHUNK_CPP
 from ..core.pixel_list import listed_pixel
 from ..core.scene_gpu import SceneGPU
-from ..scene.device.surface import is_cut_away, samples_textures, surface_at_grad
+from ..scene.device.surface import UV_FOOTPRINT_CPP, is_cut_away, samples_textures, surface_at_grad
 from ..scene.device.wide_bvh import WideBVHGPU, WideHit, wide_closest
 from .clipping import ProjectedPoints, in_guard_band, project, raster_clipped, to_camera
 from .coverage import EMPTY_KEY, RasterTarget, raster_triangle
-from .hit_record import EXACT_HIT_CPP, exact_hit, pixel_footprint
+from .hit_record import EXACT_HIT_CPP, exact_hit, pixel_footprint, sample_steps
 
 wp.set_module_options({"enable_backward": False})
 
@@ -238,6 +238,13 @@ def _write_surface(gb: GBufferRows, i: int, scene: SceneGPU, cam: CameraGPU, tri
     footprint = wp.vec4(0.0, 0.0, 0.0, 0.0)
     if samples_textures(scene, tri):
         footprint = pixel_footprint(scene, cam, tri, d)
+    _write_surface_over(gb, i, scene, tri, b, d, footprint)
+
+
+@wp.func(inline=True)
+def _write_surface_over(gb: GBufferRows, i: int, scene: SceneGPU, tri: int, b: wp.vec2, d: wp.vec3, footprint: wp.vec4):
+    """``_write_surface`` given the pixel's uv ``footprint`` (zero where the material
+    samples no texture)."""
     h = surface_at_grad(scene, tri, b[0], b[1], d, footprint)
     gb.position[i] = h.position
     gb.normal[i] = h.normal
@@ -421,18 +428,125 @@ def raycast_kernel(
             _cast(scene, wide, cam, gb, x, y)
 
 
+# The surface pass's row loop of footprints: a chunk of pixels at a time, (1) the
+# corners and corner uvs of each pixel's triangle (a gather, none for the background),
+# (2) the camera ray and ``UV_FOOTPRINT_CPP`` as plain arithmetic over the chunk (the
+# compiler vectorises it across pixels), (3) the stores.  Every hit pixel gets its
+# footprint, textured or not (the kernel reads it only where the material samples a
+# texture).
+_FOOTPRINT_SPAN_CPP = (
+    CHUNK_CPP
+    + f"""
+const wp::vec3* corners = points.data;
+const int* index = indices.data;
+const wp::vec2* uvs = corner_uvs.data;
+const wp::vec3 o = cam.origin;
+const float py = wp::add((float)y, cam.sample[1]);
+const size_t row = (size_t)y * (size_t)cam.width;
+const int* tris = triangle_id.data + row;
+wp::vec4* out = footprints.data + row;
+float ax[CHUNK], ay[CHUNK], az[CHUNK], bx[CHUNK], by[CHUNK], bz[CHUNK], cx[CHUNK], cy[CHUNK], cz[CHUNK];
+float u0[CHUNK], v0[CHUNK], u1[CHUNK], v1[CHUNK], u2[CHUNK], v2[CHUNK];
+float f0[CHUNK], f1[CHUNK], f2[CHUNK], f3[CHUNK];
+for (int xs = x0; xs < x1; xs += CHUNK) {{
+    const int n = x1 - xs < CHUNK ? x1 - xs : CHUNK;
+    for (int j = 0; j < n; ++j) {{
+        wp::vec3 a(0.0f), b(0.0f), c(0.0f);
+        wp::vec2 ta(0.0f), tb(0.0f), tc(0.0f);
+        const int tri = tris[xs + j];
+        if (tri >= 0) {{
+            const int k = 3 * tri;
+            a = corners[index[k]];
+            b = corners[index[k + 1]];
+            c = corners[index[k + 2]];
+            ta = uvs[k];
+            tb = uvs[k + 1];
+            tc = uvs[k + 2];
+        }}
+        ax[j] = a[0]; ay[j] = a[1]; az[j] = a[2];
+        bx[j] = b[0]; by[j] = b[1]; bz[j] = b[2];
+        cx[j] = c[0]; cy[j] = c[1]; cz[j] = c[2];
+        u0[j] = ta[0]; v0[j] = ta[1]; u1[j] = tb[0]; v1[j] = tb[1]; u2[j] = tc[0]; v2[j] = tc[1];
+    }}
+    for (int j = 0; j < n; ++j) {{
+        const float px = wp::add((float)(xs + j), cam.sample[0]);
+        {CAMERA_RAY_CPP}
+        const wp::vec3 d = ray;
+        const wp::vec3 p0(ax[j], ay[j], az[j]);
+        const wp::vec3 p1(bx[j], by[j], bz[j]);
+        const wp::vec3 p2(cx[j], cy[j], cz[j]);
+        const wp::vec2 uv0(u0[j], v0[j]);
+        const wp::vec2 uv1(u1[j], v1[j]);
+        const wp::vec2 uv2(u2[j], v2[j]);
+        {UV_FOOTPRINT_CPP}
+        f0[j] = fp[0]; f1[j] = fp[1]; f2[j] = fp[2]; f3[j] = fp[3];
+    }}
+    for (int j = 0; j < n; ++j) out[xs + j] = wp::vec4(f0[j], f1[j], f2[j], f3[j]);
+}}
+"""
+)
+
+
+@wp.func_native(_FOOTPRINT_SPAN_CPP)
+def _footprint_span(
+    points: wp.array(dtype=wp.vec3),
+    indices: wp.array(dtype=wp.int32),
+    corner_uvs: wp.array(dtype=wp.vec2),
+    cam: CameraGPU,
+    triangle_id: wp.array(dtype=wp.int32),
+    footprints: wp.array(dtype=wp.vec4),
+    ddx: wp.vec3,
+    ddy: wp.vec3,
+    y: int,
+    x0: int,
+    x1: int,
+):
+    """The uv footprints of pixels ``x0 <= x < x1`` of row ``y`` (``_FOOTPRINT_SPAN_CPP``):
+    the same bits as ``pixel_footprint`` pixel by pixel, for every hit pixel."""
+    ...
+
+
 @wp.kernel
-def surface_kernel(scene: SceneGPU, cam: CameraGPU, gb: GBufferRows, row0: int, row_step: int, cols: int):
+def surface_kernel(
+    scene: SceneGPU,
+    cam: CameraGPU,
+    gb: GBufferRows,
+    footprints: wp.array(dtype=wp.vec4),
+    row0: int,
+    row_step: int,
+    cols: int,
+):
     """Per pixel: evaluate the surface named by the hit record (whichever primary path
     wrote it) into the remaining G-buffer channels (the background's values where the
-    pixel sees no surface)."""
+    pixel sees no surface); ``footprints`` (flat, as ``gb``) is the pass's scratch for the
+    pixels' uv footprints, filled a row at a time in a native loop."""
     r, c = wp.tid()
     y = row0 + r * row_step
-    for x in range(c * cols, wp.min(c * cols + cols, cam.width)):
+    first = c * cols
+    stop = wp.min(first + cols, cam.width)
+    if first < stop:
+        steps = sample_steps(cam)
+        _footprint_span(
+            scene.points,
+            scene.indices,
+            scene.corner_uvs,
+            cam,
+            gb.triangle_id,
+            footprints,
+            steps[0],
+            steps[1],
+            y,
+            first,
+            stop,
+        )
+    for x in range(first, stop):
         i = y * cam.width + x
         tri = gb.triangle_id[i]
         if tri >= 0:
-            _write_surface(gb, i, scene, cam, tri, gb.barycentric[i], pixel_ray(cam, x, y))
+            footprint = wp.vec4(0.0, 0.0, 0.0, 0.0)
+            if samples_textures(scene, tri):
+                footprint = footprints[i]
+            _write_surface_over(gb, i, scene, tri, gb.barycentric[i], pixel_ray(cam, x, y), footprint)
         else:
             _write_background_surface(gb, i)
 

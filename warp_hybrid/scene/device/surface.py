@@ -283,6 +283,57 @@ def sample_texture_grad(scene: SceneGPU, tex: int, uv: wp.vec2, footprint: wp.ve
     return wp.cw_mul(_trilinear(scene, t, _texture_uv(t, uv), _lod(t, footprint)), t.scale) + t.bias
 
 
+#: C++ statements: ray differentials (Igehy 1999) on the triangle ``p0, p1, p2`` with corner
+#: uvs ``uv0, uv1, uv2``: ``fp``, how the uv of the hit of the ray ``o + t d`` with the
+#: triangle's plane changes when the direction moves by ``ddx`` and by ``ddy`` (the origin
+#: fixed), as (du/dx, dv/dx, du/dy, dv/dy).  No branch: a ray parallel to the plane gives a
+#: huge footprint (the coarsest level).  Hit weights of p1 and p2: b1 = d.A / d.C,
+#: b2 = d.Q / d.C (Moller-Trumbore).  Written once for ``uv_footprint`` and the surface
+#: pass's row loop (``primary/kernels.py``), the same bits in each.
+UV_FOOTPRINT_CPP = """
+const wp::vec3 fp_e1 = wp::sub(p1, p0);
+const wp::vec3 fp_e2 = wp::sub(p2, p0);
+const wp::vec3 fp_tv = wp::sub(o, p0);
+const wp::vec3 fp_a = wp::cross(fp_e2, fp_tv);
+const wp::vec3 fp_q = wp::cross(fp_tv, fp_e1);
+const wp::vec3 fp_c = wp::cross(fp_e2, fp_e1);
+const float fp_den = wp::dot(d, fp_c);
+const float fp_inv = wp::div(1.0f, fp_den);
+const float fp_b1 = wp::mul(wp::dot(d, fp_a), fp_inv);
+const float fp_b2 = wp::mul(wp::dot(d, fp_q), fp_inv);
+const float fp_dcx = wp::dot(ddx, fp_c);
+const float fp_dcy = wp::dot(ddy, fp_c);
+const float fp_db1x = wp::mul(wp::sub(wp::dot(ddx, fp_a), wp::mul(fp_b1, fp_dcx)), fp_inv);
+const float fp_db2x = wp::mul(wp::sub(wp::dot(ddx, fp_q), wp::mul(fp_b2, fp_dcx)), fp_inv);
+const float fp_db1y = wp::mul(wp::sub(wp::dot(ddy, fp_a), wp::mul(fp_b1, fp_dcy)), fp_inv);
+const float fp_db2y = wp::mul(wp::sub(wp::dot(ddy, fp_q), wp::mul(fp_b2, fp_dcy)), fp_inv);
+const wp::vec2 fp_du1 = wp::sub(uv1, uv0);
+const wp::vec2 fp_du2 = wp::sub(uv2, uv0);
+const wp::vec2 fp_gx = wp::add(wp::mul(fp_du1, fp_db1x), wp::mul(fp_du2, fp_db2x));
+const wp::vec2 fp_gy = wp::add(wp::mul(fp_du1, fp_db1y), wp::mul(fp_du2, fp_db2y));
+const bool fp_flat = fp_den == 0.0f;
+const wp::vec4 fp(fp_flat ? 1.0e6f : fp_gx[0], fp_flat ? 1.0e6f : fp_gx[1], fp_flat ? 1.0e6f : fp_gy[0],
+                  fp_flat ? 1.0e6f : fp_gy[1]);
+"""
+
+
+@wp.func_native(UV_FOOTPRINT_CPP + "return fp;")
+def _footprint_of(
+    p0: wp.vec3,
+    p1: wp.vec3,
+    p2: wp.vec3,
+    uv0: wp.vec2,
+    uv1: wp.vec2,
+    uv2: wp.vec2,
+    o: wp.vec3,
+    d: wp.vec3,
+    ddx: wp.vec3,
+    ddy: wp.vec3,
+) -> wp.vec4:
+    """``uv_footprint`` of the triangle's corners and corner uvs (``UV_FOOTPRINT_CPP``)."""
+    ...
+
+
 @wp.func(inline=True)
 def uv_footprint(scene: SceneGPU, tri: int, origin: wp.vec3, d: wp.vec3, ddx: wp.vec3, ddy: wp.vec3) -> wp.vec4:
     """Ray differentials (Igehy 1999) on triangle ``tri``: how the uv of the hit of the
@@ -291,32 +342,18 @@ def uv_footprint(scene: SceneGPU, tri: int, origin: wp.vec3, d: wp.vec3, ddx: wp
     the exact derivatives of the plane hit's uv; a ray parallel to the plane gives a
     huge footprint (the coarsest level)."""
     k = 3 * tri
-    p0 = scene.points[scene.indices[k]]
-    e1 = scene.points[scene.indices[k + 1]] - p0
-    e2 = scene.points[scene.indices[k + 2]] - p0
-    tv = origin - p0
-    # Hit weights of p1 and p2: b1 = d.A / d.C, b2 = d.Q / d.C (Moller-Trumbore).
-    a = wp.cross(e2, tv)
-    q = wp.cross(tv, e1)
-    c = wp.cross(e2, e1)
-    den = wp.dot(d, c)
-    if den == 0.0:
-        return wp.vec4(1.0e6, 1.0e6, 1.0e6, 1.0e6)
-    inv = 1.0 / den
-    b1 = wp.dot(d, a) * inv
-    b2 = wp.dot(d, q) * inv
-    dcx = wp.dot(ddx, c)
-    dcy = wp.dot(ddy, c)
-    db1x = (wp.dot(ddx, a) - b1 * dcx) * inv
-    db2x = (wp.dot(ddx, q) - b2 * dcx) * inv
-    db1y = (wp.dot(ddy, a) - b1 * dcy) * inv
-    db2y = (wp.dot(ddy, q) - b2 * dcy) * inv
-    uv0 = scene.corner_uvs[k]
-    du1 = scene.corner_uvs[k + 1] - uv0
-    du2 = scene.corner_uvs[k + 2] - uv0
-    gx = du1 * db1x + du2 * db2x
-    gy = du1 * db1y + du2 * db2y
-    return wp.vec4(gx[0], gx[1], gy[0], gy[1])
+    return _footprint_of(
+        scene.points[scene.indices[k]],
+        scene.points[scene.indices[k + 1]],
+        scene.points[scene.indices[k + 2]],
+        scene.corner_uvs[k],
+        scene.corner_uvs[k + 1],
+        scene.corner_uvs[k + 2],
+        origin,
+        d,
+        ddx,
+        ddy,
+    )
 
 
 @wp.func(inline=True)

@@ -23,9 +23,11 @@ RECT_CENTRE = (0.0, 2.0, 0.0)
 
 
 @wp.kernel
-def rows_kernel(scene: SceneGPU, cam: CameraGPU, gb: GBufferArrays, out: wp.array2d(dtype=wp.vec3)):
+def rows_kernel(
+    scene: SceneGPU, cam: CameraGPU, gb: GBufferArrays, begin: int, end: int, out: wp.array2d(dtype=wp.vec3)
+):
     y = wp.tid()
-    direct_span(scene, cam, gb, out, y, 0, cam.width)
+    direct_span(scene, cam, gb, out, begin, end, y, 0, cam.width)
 
 
 @wp.kernel
@@ -123,12 +125,20 @@ def test_row_loop_matches_the_scalar_sum(device, lights, dome):
     gb = _gbuffer(device, rng)
     got = wp.zeros((H, W), dtype=wp.vec3, device=device)
     want = wp.zeros((H, W), dtype=wp.vec3, device=device)
-    wp.launch(rows_kernel, dim=H, inputs=[ds.gpu, cam, gb.kernel_arrays(), got], device=device)
+    count = len(scene.lights)
+    wp.launch(rows_kernel, dim=H, inputs=[ds.gpu, cam, gb.kernel_arrays(), 0, count, got], device=device)
     wp.launch(scalar_kernel, dim=(H, W), inputs=[ds.gpu, cam, gb.kernel_arrays(), want], device=device)
     got, want = got.numpy(), want.numpy()
     assert np.all(np.isfinite(want)) and want.max() > 0.1
     # every row lit, and the rect light's three kinds of chunk all present
     assert np.all(want.sum(axis=(1, 2)) > 0.0)
+    # one light at a time (the shadowed kernel's way), summed in order: the same sum
+    terms = wp.zeros((H, W), dtype=wp.vec3, device=device)
+    summed = np.zeros((H, W, 3), np.float32)
+    for i in range(count):
+        wp.launch(rows_kernel, dim=H, inputs=[ds.gpu, cam, gb.kernel_arrays(), i, i + 1, terms], device=device)
+        summed = summed + terms.numpy()
+    np.testing.assert_array_equal(summed, got)
     if device == "cpu":
         # the same lambdas, vectorised or not: the same bits (no FMA contraction in this module)
         np.testing.assert_array_equal(got, want)

@@ -21,11 +21,12 @@ planned window the raster layer is already there.
 
 CPU performance notes: the kernel follows ``Launcher.launch_pixels`` (one launch item
 per row on the CPU, so the big ``SceneGPU``/``AmbientGPU`` arguments are copied once
-per row; one thread per pixel on CUDA).  Without shadow maps the lights' direct term of
-an item's pixels comes first, from a native row loop vectorised across pixels
-(``direct_rows.direct_span``, written into ``color_out`` and read back by the per-pixel
-loop, which adds the rest); with them each light's term is the scalar ``direct_light``
-times its visibility.  The module compiles with FMA contraction.
+per row; one thread per pixel on CUDA).  The lights' direct term of an item's pixels
+comes first, from a native row loop vectorised across pixels
+(``direct_rows.direct_span``): without shadow maps their sum, written into
+``color_out`` and read back by the per-pixel loop, which adds the rest; with them one
+light at a time into ``color_out``, each term times its visibility summed into a buffer
+of the pass's own.  The module compiles with FMA contraction.
 """
 
 from __future__ import annotations
@@ -45,7 +46,7 @@ from ..scene.device.environment import environment_radiance
 from ..timing import StageTimer
 from .direct_rows import direct_span
 from .probe_kernels import ProbeGPU, probe_specular
-from .shading import diffuse_albedo, direct_light, shade_surface, shade_surface_with
+from .shading import diffuse_albedo, shade_surface, shade_surface_with
 from .shadow_map_kernels import ShadowMapsGPU, shadow_visibility
 
 if TYPE_CHECKING:
@@ -56,6 +57,15 @@ if TYPE_CHECKING:
 # CPU; results change by rounding only.
 _CPU_FLAGS = f"{wp.config.cpu_compiler_flags or '-march=native'} -ffp-contract=fast"
 wp.set_module_options({"enable_backward": False, "cpu_compiler_flags": _CPU_FLAGS})
+
+
+@wp.func(inline=True)
+def _flags(scene: SceneGPU, gb: GBufferArrays, x: int, y: int) -> int:
+    """The material flags of pixel (x, y) (0 where it has no material)."""
+    mid = gb.material_id[y, x]
+    if mid >= 0:
+        return scene.materials[mid].flags
+    return 0
 
 
 def _make_shade_kernel(shadowed: bool, probed: bool = False) -> wp.Kernel:
@@ -73,35 +83,22 @@ def _make_shade_kernel(shadowed: bool, probed: bool = False) -> wp.Kernel:
         amb: AmbientGPU,
         cam: CameraGPU,
         gb: GBufferArrays,
-        sm: ShadowMapsGPU,
         probe: ProbeGPU,
         x: int,
         y: int,
-        unshadowed: wp.vec3,
+        direct: wp.vec3,
     ) -> wp.vec3:
-        """Outgoing radiance of pixel (x, y); without shadow maps ``unshadowed`` is the
-        pixel's direct light (``direct_rows.direct_span``), with them it is ignored."""
+        """Outgoing radiance of pixel (x, y) given its (shadowed) ``direct`` light."""
         if gb.triangle_id[y, x] < 0:
             return environment_radiance(scene, pixel_ray(cam, x, y))  # any length will do
         p = gb.position[y, x]
         n = gb.normal[y, x]
         v = wp.normalize(cam.origin - p)
         opt = gb.optics[y, x]
-        flags = int(0)
-        mid = gb.material_id[y, x]
-        if mid >= 0:
-            flags = scene.materials[mid].flags
+        flags = _flags(scene, gb, x, y)
         base = gb.albedo[y, x]
         f0 = gb.specular[y, x]
         kd = diffuse_albedo(scene, n, v, base, opt.opacity, opt.ior, flags)
-        direct = unshadowed
-        if wp.static(shadowed):
-            for i in range(scene.light_count):
-                c = direct_light(scene, i, p, n, v, kd, f0, opt.roughness)
-                if c[0] > 0.0 or c[1] > 0.0 or c[2] > 0.0:
-                    transmissive = (flags & FLAG_TRANSMISSIVE) != 0
-                    c = c * shadow_visibility(scene, sm, i, p, gb.geometric_normal[y, x], transmissive)
-                direct += c
         if wp.static(probed):
             specular = probe_specular(scene, amb, probe, p, n, v, f0, opt.roughness)
             return shade_surface_with(
@@ -118,6 +115,7 @@ def _make_shade_kernel(shadowed: bool, probed: bool = False) -> wp.Kernel:
         gb: GBufferArrays,
         sm: ShadowMapsGPU,
         probe: ProbeGPU,
+        direct: wp.array2d(dtype=wp.vec3),
         color_out: wp.array2d(dtype=wp.vec3),
         row0: int,
         row_step: int,
@@ -127,14 +125,26 @@ def _make_shade_kernel(shadowed: bool, probed: bool = False) -> wp.Kernel:
         y = row0 + r * row_step
         first = c * cols
         stop = wp.min(first + cols, cam.width)
-        if wp.static(not shadowed):
-            if first < stop:
-                direct_span(scene, cam, gb, color_out, y, first, stop)
+        if first >= stop:
+            return
+        if wp.static(shadowed):
+            # each light's term (into color_out), times its visibility, summed into direct
+            for x in range(first, stop):
+                direct[y, x] = wp.vec3(0.0, 0.0, 0.0)
+            for i in range(scene.light_count):
+                direct_span(scene, cam, gb, color_out, i, i + 1, y, first, stop)
+                for x in range(first, stop):
+                    term = color_out[y, x]
+                    if gb.triangle_id[y, x] >= 0 and (term[0] > 0.0 or term[1] > 0.0 or term[2] > 0.0):
+                        transmissive = (_flags(scene, gb, x, y) & FLAG_TRANSMISSIVE) != 0
+                        term = term * shadow_visibility(
+                            scene, sm, i, gb.position[y, x], gb.geometric_normal[y, x], transmissive
+                        )
+                    direct[y, x] = direct[y, x] + term
+        else:
+            direct_span(scene, cam, gb, direct, 0, scene.light_count, y, first, stop)
         for x in range(first, stop):
-            unshadowed = wp.vec3(0.0, 0.0, 0.0)
-            if wp.static(not shadowed):
-                unshadowed = color_out[y, x]
-            color_out[y, x] = shade_pixel(scene, amb, cam, gb, sm, probe, x, y, unshadowed)
+            color_out[y, x] = shade_pixel(scene, amb, cam, gb, probe, x, y, direct[y, x])
 
     if shadowed or probed:
         options = {"enable_backward": False, "cpu_compiler_flags": _CPU_FLAGS}
@@ -170,6 +180,7 @@ class DeferredLighting(RenderPass):
         self.launcher = launcher
         self.shadow_maps = shadow_maps
         self.probe = probe
+        self._direct: wp.array | None = None
         # compiles the lighting module (or the variant's) up front
         launcher.ensure_loaded(shade_kernel(shadow_maps is not None, probe is not None))
 
@@ -209,7 +220,17 @@ class DeferredLighting(RenderPass):
             gbuffer.kernel_arrays(),
             _NO_MAPS if maps is None else maps,
             _NO_PROBE if probe is None else probe,
+            color_out if maps is None else self._direct_sums(color_out),
             color_out,
         ]
         with timer.stage("lighting"):
             self.launcher.launch_pixels(kernel, h, w, inputs, rows=rows)
+
+    def _direct_sums(self, color_out: wp.array) -> wp.array:
+        """The shadowed kernel's buffer of each pixel's direct light (the lights' terms
+        times their visibility, summed), shaped and placed as ``color_out``; allocated again
+        only when that changes."""
+        sums = self._direct
+        if sums is None or (sums.shape, sums.device) != (color_out.shape, color_out.device):
+            sums = self._direct = wp.empty(color_out.shape, dtype=wp.vec3, device=color_out.device)
+        return sums

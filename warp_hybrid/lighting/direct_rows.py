@@ -1,6 +1,7 @@
-"""The deferred pass's direct light as a native row loop: every light's unshadowed
-response (``shading.direct_light``, summed over the scene's lights) for a span of one
-row, across pixels.
+"""The deferred pass's direct light as a native row loop: the lights' unshadowed
+responses (``shading.direct_light``, summed over a range of the scene's lights: all of
+them, or one at a time where shadow maps weigh each) for a span of one row, across
+pixels.
 
 The loop takes ``CHUNK_CPU`` pixels at a time: (1) a gather of the pixels' G-buffer
 channels and material flags, (2) the view direction and the diffuse colour
@@ -63,7 +64,7 @@ for (int xs = x0; xs < x1; xs += CHUNK) {{
         kr[j] = kd[0]; kg[j] = kd[1]; kb[j] = kd[2];
         dr[j] = 0.0f; dg[j] = 0.0f; db[j] = 0.0f;
     }}
-    for (int li = 0; li < scene.light_count; ++li) {{
+    for (int li = lights_begin; li < lights_end; ++li) {{
         const auto light = scene.lights.data[li];
         const bool has_cone = wh_has_cone(light);
         const float cos_inner = has_cone ? wh_cone_inner(light) : 0.0f;
@@ -114,11 +115,14 @@ def direct_span(
     cam: CameraGPU,
     gb: GBufferArrays,
     direct_out: wp.array2d(dtype=wp.vec3),
+    lights_begin: int,
+    lights_end: int,
     y: int,
     x0: int,
     x1: int,
 ):
-    """Into ``direct_out[y, x]`` for ``x0 <= x < x1``: the sum over the scene's lights of
-    each one's unshadowed response at the pixel's G-buffer point (``shading.direct_light``
-    with ``shading.diffuse_albedo``'s colour), pixel by pixel the same arithmetic."""
+    """Into ``direct_out[y, x]`` for ``x0 <= x < x1``: the sum over the scene's lights
+    ``lights_begin <= i < lights_end`` of each one's unshadowed response at the pixel's
+    G-buffer point (``shading.direct_light`` with ``shading.diffuse_albedo``'s colour),
+    pixel by pixel the same arithmetic (one light: its term alone)."""
     ...

@@ -66,6 +66,7 @@ constexpr int WH_RECT = {int(LightKind.RECT)};
 constexpr int WH_RECT_ANY = 0;
 constexpr int WH_RECT_ABOVE = 1;
 constexpr int WH_RECT_CLIPPED = 2;
+constexpr int WH_RECT_ONE = 3;
 // Per component (a select of whole vectors would keep them in memory, unvectorised).
 auto wh_select = [&](const bool c, const wp::vec3& a, const wp::vec3& b) WH_INLINE -> wp::vec3 {{
     return wp::vec3(c ? a[0] : b[0], c ? a[1] : b[1], c ? a[2] : b[2]);
@@ -199,11 +200,12 @@ auto wh_edge_term = [&](const wp::vec3& a, const wp::vec3& b, const wp::vec3& n)
 };""",
         ("subtended_angle",),
     ),
-    # Branch-free (each edge's term computed and added or not): the row loop evaluates
-    # it across pixels; adding a zero leaves the sum's bits as a skipped edge would.
+    # Branch-free (each edge's term computed and added or not) unless ``scalar``: the row
+    # loop evaluates it across pixels; adding a zero leaves the sum's bits as a skipped
+    # edge does.
     "quad_edge_sum": Piece(
         """auto wh_quad_edge_sum = [&](const wp::vec3& q0, const wp::vec3& q1, const wp::vec3& q2, const wp::vec3& q3,
-                          const wp::vec3& n) WH_INLINE -> float {
+                          const wp::vec3& n, const bool scalar) WH_INLINE -> float {
     float total = 0.0f;
     wp::vec3 exit_pt(0.0f), entry_pt(0.0f);
     int inside = 0;
@@ -213,6 +215,7 @@ auto wh_edge_term = [&](const wp::vec3& a, const wp::vec3& b, const wp::vec3& n)
         const float hb = wp::dot(n, b);
         const bool in_a = ha > 0.0f;
         const bool in_b = hb > 0.0f;
+        if (scalar && !in_a && !in_b) return;
         const wp::vec3 h = wp::add(a, wp::mul(wp::sub(b, a), ha / (ha - hb)));
         const float term = wh_edge_term(wh_select(in_a, a, h), wh_select(in_b, b, h), n);
         total += in_a || in_b ? term : 0.0f;
@@ -232,7 +235,8 @@ auto wh_edge_term = [&](const wp::vec3& a, const wp::vec3& b, const wp::vec3& n)
     ),
     # ``path``: ``WH_RECT_ABOVE`` where the caller knows the rectangle lies wholly above
     # the point's horizon (``wh_rect_above``), ``WH_RECT_CLIPPED`` where it knows it
-    # does not, ``WH_RECT_ANY`` to decide per point.
+    # does not, ``WH_RECT_ANY`` to decide per point, ``WH_RECT_ONE`` to decide for one
+    # point at a time (branches: the clipped polygon skips the edges below the horizon).
     "rect_edge_sum": Piece(
         """auto wh_rect_above = [&](const wp::vec3& d, const wp::vec3& u, const wp::vec3& v, const wp::vec3& n) WH_INLINE
     -> bool {
@@ -256,17 +260,18 @@ auto wh_rect_edge_sum_above = [&](const wp::vec3& d, const wp::vec3& u, const wp
     total += wh_rect_edge(wp::sub(z, xv), half_dd - du - half_k, n);
     return total;
 };
-auto wh_rect_edge_sum_clipped = [&](const wp::vec3& d, const wp::vec3& u, const wp::vec3& v, const wp::vec3& n)
-    WH_INLINE -> float {
+auto wh_rect_edge_sum_clipped = [&](const wp::vec3& d, const wp::vec3& u, const wp::vec3& v, const wp::vec3& n,
+                                    const bool scalar) WH_INLINE -> float {
     return wh_quad_edge_sum(wp::sub(wp::sub(d, u), v), wp::sub(wp::add(d, u), v), wp::add(wp::add(d, u), v),
-                            wp::add(wp::sub(d, u), v), n);
+                            wp::add(wp::sub(d, u), v), n, scalar);
 };
 auto wh_rect_edge_sum = [&](const wp::vec3& d, const wp::vec3& u, const wp::vec3& v, const wp::vec3& n,
                             const int path) WH_INLINE -> float {
     if (path == WH_RECT_ABOVE) return wh_rect_edge_sum_above(d, u, v, n);
-    if (path == WH_RECT_CLIPPED) return wh_rect_edge_sum_clipped(d, u, v, n);
+    if (path == WH_RECT_CLIPPED) return wh_rect_edge_sum_clipped(d, u, v, n, false);
+    const bool scalar = path == WH_RECT_ONE;
     if (wh_rect_above(d, u, v, n)) return wh_rect_edge_sum_above(d, u, v, n);
-    return wh_rect_edge_sum_clipped(d, u, v, n);
+    return wh_rect_edge_sum_clipped(d, u, v, n, scalar);
 };""",
         ("edge_term", "quad_edge_sum"),
     ),

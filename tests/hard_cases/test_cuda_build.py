@@ -1,6 +1,7 @@
 """The kernels build for CUDA wherever NVRTC is installed, a GPU or not: the native C++ the
-CPU loops share with the per-pixel funcs (the resolve's and the tally's loops, the tone map,
-FXAA's contrast test, the camera ray, the exact hit, the texture taps) compiles to PTX for
+CPU loops share with the per-pixel funcs (the resolve's, the surface pass's, the lights' and
+the tally's loops, the tone map, FXAA's contrast test, the camera ray, the exact hit, the
+texture taps, the BRDF and the lights) compiles to PTX for
 sm_90 (an H100/H200), so a machine with a GPU does not meet a compile error first.
 Skipped where Warp finds no NVRTC."""
 
@@ -23,13 +24,15 @@ ARCH = 90
 
 _VARIANT = TraceVariant.for_scene(SceneFeatures.all(), shadow_samples=4, wide_bvh=False)
 #: What to build: the modules that hold the project's native loops (every other module
-#: takes its native C++, the camera ray for one, from the same sources), and the tracer's
+#: takes its native C++, the camera ray for one, from the same sources; the lighting
+#: pass's largest variant too), and the tracer's
 #: largest variant (every effect, as CUDA runs it: Warp's own BVH queries).
 MODULES = {
     "primary": primary_kernels,
     "tally": tally,
     "post": post_kernels,
     "lighting": deferred,
+    "lighting with shadow maps and a probe": deferred.shade_kernel(True, True).module,
     "path": path_kernel(_VARIANT).module,
     "shadows": shadow_kernel(*_VARIANT.shadow_key()).module,
 }

@@ -261,6 +261,27 @@ def _write_surface_over(gb: GBufferRows, i: int, scene: SceneGPU, tri: int, b: w
     gb.material_id[i] = h.material
 
 
+# C++ the row loops over a row's triangles share (the resolve's and the surface pass's):
+# the chunk's lane arrays of triangle corners; lane j's corners ``a, b, c`` stored into
+# them; lane j's camera ray ``d`` (``CAMERA_RAY_CPP`` through its pixel's sample point,
+# needing ``py``) and its corners ``p0, p1, p2`` read back.
+_CORNER_LANES_CPP = (
+    "float ax[CHUNK], ay[CHUNK], az[CHUNK], bx[CHUNK], by[CHUNK], bz[CHUNK], cx[CHUNK], cy[CHUNK], cz[CHUNK];"
+)
+_STORE_CORNERS_CPP = """
+ax[j] = a[0]; ay[j] = a[1]; az[j] = a[2];
+bx[j] = b[0]; by[j] = b[1]; bz[j] = b[2];
+cx[j] = c[0]; cy[j] = c[1]; cz[j] = c[2];
+"""
+_LANE_RAY_CPP = f"""
+const float px = wp::add((float)(xs + j), cam.sample[0]);
+{CAMERA_RAY_CPP}
+const wp::vec3 d = ray;
+const wp::vec3 p0(ax[j], ay[j], az[j]);
+const wp::vec3 p1(bx[j], by[j], bz[j]);
+const wp::vec3 p2(cx[j], cy[j], cz[j]);
+"""
+
 # The resolve's row loop: a chunk of pixels at a time, (1) the smallest key over the
 # slices, (2) the corners of each pixel's triangle (a gather, none for an empty key),
 # (3) the camera ray and ``EXACT_HIT_CPP`` in a loop of plain arithmetic over the chunk
@@ -279,7 +300,7 @@ const float py = wp::add((float)y, cam.sample[1]);
 const size_t row = (size_t)y * (size_t)cam.width;
 const wp::uint64* first = (const wp::uint64*)((const char*)keys.data + (size_t)y * keys.strides[1]);
 wp::uint64 key[CHUNK];
-float ax[CHUNK], ay[CHUNK], az[CHUNK], bx[CHUNK], by[CHUNK], bz[CHUNK], cx[CHUNK], cy[CHUNK], cz[CHUNK];
+{_CORNER_LANES_CPP}
 float hit_t[CHUNK], hit_u[CHUNK], hit_v[CHUNK];
 for (int xs = x0; xs < x1; xs += CHUNK) {{
     const int n = x1 - xs < CHUNK ? x1 - xs : CHUNK;
@@ -296,17 +317,10 @@ for (int xs = x0; xs < x1; xs += CHUNK) {{
             b = corners[index[k + 1]];
             c = corners[index[k + 2]];
         }}
-        ax[j] = a[0]; ay[j] = a[1]; az[j] = a[2];
-        bx[j] = b[0]; by[j] = b[1]; bz[j] = b[2];
-        cx[j] = c[0]; cy[j] = c[1]; cz[j] = c[2];
+        {_STORE_CORNERS_CPP}
     }}
     for (int j = 0; j < n; ++j) {{
-        const float px = wp::add((float)(xs + j), cam.sample[0]);
-        {CAMERA_RAY_CPP}
-        const wp::vec3 d = ray;
-        const wp::vec3 p0(ax[j], ay[j], az[j]);
-        const wp::vec3 p1(bx[j], by[j], bz[j]);
-        const wp::vec3 p2(cx[j], cy[j], cz[j]);
+        {_LANE_RAY_CPP}
         {EXACT_HIT_CPP}
         hit_t[j] = eh_t;
         hit_u[j] = rt_bu;
@@ -445,7 +459,7 @@ const float py = wp::add((float)y, cam.sample[1]);
 const size_t row = (size_t)y * (size_t)cam.width;
 const int* tris = triangle_id.data + row;
 wp::vec4* out = footprints.data + row;
-float ax[CHUNK], ay[CHUNK], az[CHUNK], bx[CHUNK], by[CHUNK], bz[CHUNK], cx[CHUNK], cy[CHUNK], cz[CHUNK];
+{_CORNER_LANES_CPP}
 float u0[CHUNK], v0[CHUNK], u1[CHUNK], v1[CHUNK], u2[CHUNK], v2[CHUNK];
 float f0[CHUNK], f1[CHUNK], f2[CHUNK], f3[CHUNK];
 for (int xs = x0; xs < x1; xs += CHUNK) {{
@@ -463,18 +477,11 @@ for (int xs = x0; xs < x1; xs += CHUNK) {{
             tb = uvs[k + 1];
             tc = uvs[k + 2];
         }}
-        ax[j] = a[0]; ay[j] = a[1]; az[j] = a[2];
-        bx[j] = b[0]; by[j] = b[1]; bz[j] = b[2];
-        cx[j] = c[0]; cy[j] = c[1]; cz[j] = c[2];
+        {_STORE_CORNERS_CPP}
         u0[j] = ta[0]; v0[j] = ta[1]; u1[j] = tb[0]; v1[j] = tb[1]; u2[j] = tc[0]; v2[j] = tc[1];
     }}
     for (int j = 0; j < n; ++j) {{
-        const float px = wp::add((float)(xs + j), cam.sample[0]);
-        {CAMERA_RAY_CPP}
-        const wp::vec3 d = ray;
-        const wp::vec3 p0(ax[j], ay[j], az[j]);
-        const wp::vec3 p1(bx[j], by[j], bz[j]);
-        const wp::vec3 p2(cx[j], cy[j], cz[j]);
+        {_LANE_RAY_CPP}
         const wp::vec2 uv0(u0[j], v0[j]);
         const wp::vec2 uv1(u1[j], v1[j]);
         const wp::vec2 uv2(u2[j], v2[j]);

@@ -21,12 +21,11 @@ the row loop's body is straight-line code.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import warp as wp
 
-from ..core.constants import ALPHA_MIN, LUMA_709_CPP
+from ..core.constants import ALPHA_MIN, INV_PI, LUMA_709_CPP, PI
 from ..core.scene_gpu import FLAG_TRANSMISSIVE
 from ..scene.model import LightKind
 
@@ -56,8 +55,8 @@ _HEADER = f"""
 #define WH_INLINE __attribute__((always_inline))
 #endif
 #endif
-constexpr float WH_PI = {_f(math.pi)};
-constexpr float WH_INV_PI = {_f(1.0 / math.pi)};
+constexpr float WH_PI = {_f(PI)};
+constexpr float WH_INV_PI = {_f(INV_PI)};
 constexpr float WH_ALPHA_MIN = {_f(ALPHA_MIN)};
 constexpr float WH_COS_EPS = {_f(COS_EPS)};
 constexpr int WH_DISTANT = {int(LightKind.DISTANT)};

@@ -2,7 +2,7 @@
 and per thread (``launch_profile.LaunchProfile`` attached to the renderer's launcher).
 
     .venv/bin/python scripts/profile_frame.py SCENE [--mode raster|hybrid|full] [--size 640x480]
-        [--frames 5] [--window 0.25] [--threads N] [--raster-cache] [--json out/profile.json]
+        [--frames 5] [--window 0.25] [--threads N] [--raster-cache] [--shadow-maps] [--json out/profile.json]
 
 Renders a warm-up frame, then ``--frames`` frames with the profile attached, and prints,
 slowest first, each kernel's launches per frame, its wall time per frame (the busiest
@@ -10,7 +10,8 @@ thread's time), its CPU time over all threads and the thread balance (mean over 
 piece); then the frame's stages and the host time no kernel accounts for.  With
 ``--raster-cache`` (hybrid mode) the still view's raster layer is kept, so the profiled
 frames are the kept frames of a gaze replay over a still camera (the gaze fixed at the
-centre): what the budget loop's traced window is left with.
+centre): what the budget loop's traced window is left with.  ``--shadow-maps`` shadows the
+raster layer with shadow maps (their pass and the lighting kernel's shadowed variant).
 """
 
 from __future__ import annotations
@@ -31,6 +32,7 @@ def main() -> None:
     ap.add_argument("--window", type=float, default=0.25)
     ap.add_argument("--threads", type=int, default=None)
     ap.add_argument("--raster-cache", action="store_true", help="keep the still view's raster layer (kept frames)")
+    ap.add_argument("--shadow-maps", action="store_true", help="shadow the raster layer with shadow maps")
     ap.add_argument("--json", default=None)
     args = ap.parse_args()
     from warp_hybrid.launch_profile import LaunchProfile
@@ -49,6 +51,7 @@ def main() -> None:
         window_fraction=args.window,
         threads=args.threads,
         cache_raster=args.raster_cache,
+        shadow_maps=args.shadow_maps,
     )
     with Renderer(scene, settings) as r:
         r.warm_up(camera)

@@ -243,8 +243,8 @@ def _write_surface(gb: GBufferRows, i: int, scene: SceneGPU, cam: CameraGPU, tri
 
 @wp.func(inline=True)
 def _write_surface_over(gb: GBufferRows, i: int, scene: SceneGPU, tri: int, b: wp.vec2, d: wp.vec3, footprint: wp.vec4):
-    """``_write_surface`` given the pixel's uv ``footprint`` (zero where the material
-    samples no texture)."""
+    """``_write_surface`` given the pixel's uv ``footprint`` (read only where the material
+    samples a texture)."""
     h = surface_at_grad(scene, tri, b[0], b[1], d, footprint)
     gb.position[i] = h.position
     gb.normal[i] = h.normal
@@ -446,8 +446,7 @@ def raycast_kernel(
 # corners and corner uvs of each pixel's triangle (a gather, none for the background),
 # (2) the camera ray and ``UV_FOOTPRINT_CPP`` as plain arithmetic over the chunk (the
 # compiler vectorises it across pixels), (3) the stores.  Every hit pixel gets its
-# footprint, textured or not (the kernel reads it only where the material samples a
-# texture).
+# footprint, textured or not (a material without textures never reads it).
 _FOOTPRINT_SPAN_CPP = (
     CHUNK_CPP
     + f"""
@@ -550,10 +549,8 @@ def surface_kernel(
         i = y * cam.width + x
         tri = gb.triangle_id[i]
         if tri >= 0:
-            footprint = wp.vec4(0.0, 0.0, 0.0, 0.0)
-            if samples_textures(scene, tri):
-                footprint = footprints[i]
-            _write_surface_over(gb, i, scene, tri, gb.barycentric[i], pixel_ray(cam, x, y), footprint)
+            # (a material without textures never reads its footprint)
+            _write_surface_over(gb, i, scene, tri, gb.barycentric[i], pixel_ray(cam, x, y), footprints[i])
         else:
             _write_background_surface(gb, i)
 

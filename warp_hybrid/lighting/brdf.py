@@ -73,18 +73,6 @@ def ggx_d(n_dot_h: float, alpha: float) -> float:
     ...
 
 
-@wp.func_native(cpp("smith_visibility") + "return wh_smith_visibility(n_dot_v, n_dot_l, alpha);")
-def smith_visibility(n_dot_v: float, n_dot_l: float, alpha: float) -> float:
-    """Height-correlated Smith G2 / (4 n.l n.v) for GGX."""
-    ...
-
-
-@wp.func_native(cpp("half_vector") + "return wh_half_vector(v, l);")
-def half_vector(v: wp.vec3, l: wp.vec3) -> wp.vec3:
-    """Unit half vector between ``v`` and ``l`` (``v`` when they are opposite)."""
-    ...
-
-
 @wp.func_native(cpp("diffuse_view_weight") + "return wh_diffuse_view_weight(f0, n_dot_v);")
 def diffuse_view_weight(f0: wp.vec3, n_dot_v: float) -> wp.vec3:
     """``1 - F(n.v)``: the diffuse lobe's directional albedo per unit albedo (what a

@@ -88,9 +88,8 @@ _LightTerms = wp.types.matrix(shape=(4, 3), dtype=wp.float32)
 wp::vec3 wi, e_normal, irradiance;
 float distance;
 const bool has_cone = wh_has_cone(light);
-wh_light_sample(light, light.kind, has_cone, has_cone ? wh_cone_inner(light) : 0.0f, p, n, exact, WH_RECT_ONE, wi,
-                distance,
-                e_normal, irradiance);
+const float cos_inner = has_cone ? wh_cone_inner(light) : 0.0f;
+wh_light_sample(light, light.kind, has_cone, cos_inner, p, n, exact, WH_RECT_ONE, wi, distance, e_normal, irradiance);
 wp::mat_t<4, 3, float> rows;
 for (int i = 0; i < 3; ++i) {
     rows.data[0][i] = wi[i];

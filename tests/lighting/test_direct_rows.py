@@ -1,4 +1,5 @@
-"""The deferred pass's native row loop of direct light against the scalar functions, pixel by pixel."""
+"""The deferred pass's native row loops (the lights' direct sum, and the whole radiance under a
+direction-free dome) against the scalar functions, pixel by pixel."""
 
 from __future__ import annotations
 
@@ -6,14 +7,16 @@ import numpy as np
 import pytest
 import warp as wp
 
-from warp_hybrid.core.camera import CameraGPU, make_camera_gpu
+from warp_hybrid.core.camera import CameraGPU, make_camera_gpu, pixel_ray
 from warp_hybrid.core.gbuffer import GBuffer, GBufferArrays
-from warp_hybrid.core.scene_gpu import SceneGPU
-from warp_hybrid.lighting.direct_rows import direct_span
-from warp_hybrid.lighting.shading import diffuse_albedo, direct_light
+from warp_hybrid.core.scene_gpu import AmbientGPU, SceneGPU
+from warp_hybrid.lighting.ambient import ambient_irradiance, direction_free
+from warp_hybrid.lighting.direct_rows import direct_span, lit_span
+from warp_hybrid.lighting.shading import diffuse_albedo, direct_light, shade_surface
 from warp_hybrid.scene.authoring.builders import look_at_camera, make_scene, quad
 from warp_hybrid.scene.device import DeviceScene
-from warp_hybrid.scene.model import Environment, Light, LightKind, Material
+from warp_hybrid.scene.device.environment import environment_radiance
+from warp_hybrid.scene.model import Environment, Light, LightKind, Material, TextureBinding, TextureImage
 
 wp.set_module_options({"enable_backward": False})
 
@@ -43,6 +46,45 @@ def scalar_kernel(scene: SceneGPU, cam: CameraGPU, gb: GBufferArrays, out: wp.ar
     for i in range(scene.light_count):
         direct += direct_light(scene, i, p, n, v, kd, gb.specular[y, x], opt.roughness)
     out[y, x] = direct
+
+
+@wp.kernel
+def lit_rows_kernel(
+    scene: SceneGPU, amb: AmbientGPU, cam: CameraGPU, gb: GBufferArrays, out: wp.array2d(dtype=wp.vec3)
+):
+    y = wp.tid()
+    up = wp.vec3(0.0, 0.0, 1.0)
+    e = ambient_irradiance(scene, amb, up)
+    sky = environment_radiance(scene, up)
+    lit_span(scene, amb, cam, gb, out, 0, scene.light_count, e, sky, y, 0, cam.width)
+
+
+@wp.kernel
+def lit_scalar_kernel(
+    scene: SceneGPU, amb: AmbientGPU, cam: CameraGPU, gb: GBufferArrays, out: wp.array2d(dtype=wp.vec3)
+):
+    y, x = wp.tid()
+    if gb.triangle_id[y, x] < 0:
+        out[y, x] = environment_radiance(scene, pixel_ray(cam, x, y))
+        return
+    p = gb.position[y, x]
+    n = gb.normal[y, x]
+    v = wp.normalize(cam.origin - p)
+    opt = gb.optics[y, x]
+    flags = scene.materials[gb.material_id[y, x]].flags
+    kd = diffuse_albedo(scene, n, v, gb.albedo[y, x], opt.opacity, opt.ior, flags)
+    f0 = gb.specular[y, x]
+    direct = wp.vec3(0.0, 0.0, 0.0)
+    for i in range(scene.light_count):
+        direct += direct_light(scene, i, p, n, v, kd, f0, opt.roughness)
+    out[y, x] = shade_surface(
+        scene, amb, n, v, gb.albedo[y, x], kd, f0, opt.roughness, gb.emission[y, x], opt.opacity, opt.ior, flags, direct
+    )
+
+
+@wp.kernel
+def direction_free_kernel(scene: SceneGPU, amb: AmbientGPU, out: wp.array(dtype=wp.int32)):
+    out[0] = wp.where(direction_free(scene, amb), 1, 0)
 
 
 def _lights(kind: str) -> list[Light]:
@@ -144,3 +186,61 @@ def test_row_loop_matches_the_scalar_sum(device, lights, dome):
         np.testing.assert_array_equal(got, want)
     else:
         np.testing.assert_allclose(got, want, rtol=1e-6, atol=1e-7)
+
+
+@pytest.mark.parametrize("dome", [False, True])
+@pytest.mark.parametrize("indirect", [False, True])
+def test_lit_row_loop_matches_the_scalar_shading(device, dome, indirect):
+    """The whole radiance under no dome or an untextured one (with and without the
+    lights' indirect estimate in the ambient irradiance): emission, every kind of light,
+    the ambient diffuse and glossy terms, light through glass, and the dome's colour on
+    background pixels, the same as ``shade_surface`` pixel by pixel."""
+    rng = np.random.default_rng(11)
+    materials = [Material("paint"), Material("glass", opacity=0.3, ior=1.5)]
+    env = Environment("dome", (0.2, 0.3, 0.4)) if dome else None
+    scene = make_scene([quad((-3, -1, -3), (6, 0, 0), (0, 0, 6))], materials, lights=_lights("all"), environment=env)
+    ds = DeviceScene(scene, device, indirect=indirect)
+    flag = wp.zeros(1, dtype=wp.int32, device=device)
+    wp.launch(direction_free_kernel, dim=1, inputs=[ds.gpu, ds.ambient, flag], device=device)
+    assert flag.numpy()[0] == 1
+    cam = make_camera_gpu(look_at_camera((0.5, 3.0, 4.0), (0.0, 0.0, 0.0)), W, H)
+    gb = _gbuffer(device, rng)
+    emission = np.zeros((H, W, 3), np.float32)
+    emission[:, ::5] = rng.uniform(0.0, 2.0, (H, len(range(0, W, 5)), 3))
+    gb.emission.assign(emission)
+    triangles = np.zeros((H, W), np.int32)
+    triangles[:, 7::9] = -1  # background pixels among the hits
+    gb.triangle_id.assign(triangles)
+    got = wp.zeros((H, W), dtype=wp.vec3, device=device)
+    want = wp.zeros((H, W), dtype=wp.vec3, device=device)
+    inputs = [ds.gpu, ds.ambient, cam, gb.kernel_arrays()]
+    wp.launch(lit_rows_kernel, dim=H, inputs=[*inputs, got], device=device)
+    wp.launch(lit_scalar_kernel, dim=(H, W), inputs=[*inputs, want], device=device)
+    got, want = got.numpy(), want.numpy()
+    assert np.all(np.isfinite(want)) and want.max() > 0.1
+    sky = np.asarray(env.color, np.float32) if dome else np.zeros(3, np.float32)
+    np.testing.assert_array_equal(want[triangles < 0], np.broadcast_to(sky, want[triangles < 0].shape))
+    if indirect:
+        assert max(ds.ambient.indirect) > 0.0
+    if device == "cpu":
+        np.testing.assert_array_equal(got, want)
+    else:
+        np.testing.assert_allclose(got, want, rtol=1e-6, atol=1e-7)
+
+
+def test_a_textured_dome_is_not_direction_free(device):
+    """A dome with a texture varies with direction: the lighting kernel's per-pixel path."""
+    rng = np.random.default_rng(3)
+    pixels = rng.uniform(0.0, 1.0, (8, 16, 4)).astype(np.float32)
+    scene = make_scene(
+        [quad((-3, -1, -3), (6, 0, 0), (0, 0, 6))],
+        [Material("paint")],
+        lights=_lights("rect"),
+        environment=Environment("dome", (1.0, 1.0, 1.0), texture=0),
+        textures=[TextureBinding(0)],
+        images=[TextureImage("<sky>", pixels)],
+    )
+    ds = DeviceScene(scene, device)
+    flag = wp.zeros(1, dtype=wp.int32, device=device)
+    wp.launch(direction_free_kernel, dim=1, inputs=[ds.gpu, ds.ambient, flag], device=device)
+    assert flag.numpy()[0] == 0

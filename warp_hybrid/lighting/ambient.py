@@ -29,7 +29,8 @@ from ..scene.device.environment import (
     environment_uv_wp,
     latlong_bilinear,
 )
-from .brdf import diffuse_view_weight, fresnel_f90, roughness_to_alpha
+from .brdf import roughness_to_alpha
+from .native_math import cpp
 
 
 @wp.func(inline=True)
@@ -101,22 +102,35 @@ def prefiltered_radiance(scene: SceneGPU, amb: AmbientGPU, dir_world: wp.vec3, r
     return lower * (1.0 - t) + _level_radiance(scene, amb, l0 + 1, uv) * t
 
 
-@wp.func(inline=True)
+@wp.func_native(cpp("env_brdf") + "return wh_env_brdf(amb.brdf_lut, f0, roughness, n_dot_v);")
 def env_brdf(amb: AmbientGPU, f0: wp.vec3, roughness: float, n_dot_v: float) -> wp.vec3:
     """Split-sum specular reflectance ``f0 A + f90 B`` under uniform light, bilinear in
     the (roughness, n.v) table."""
-    size = amb.brdf_lut.shape[0]
-    fr = wp.clamp(roughness, 0.0, 1.0) * float(size - 1)
-    fv = wp.clamp(wp.clamp(n_dot_v, 0.0, 1.0) * float(size) - 0.5, 0.0, float(size - 1))
-    r0 = wp.min(int(fr), size - 2)
-    v0 = wp.min(int(fv), size - 2)
-    tr = fr - float(r0)
-    tv = fv - float(v0)
-    ab = (amb.brdf_lut[r0, v0] * (1.0 - tv) + amb.brdf_lut[r0, v0 + 1] * tv) * (1.0 - tr) + (
-        amb.brdf_lut[r0 + 1, v0] * (1.0 - tv) + amb.brdf_lut[r0 + 1, v0 + 1] * tv
-    ) * tr
-    f90 = fresnel_f90(f0)
-    return f0 * ab[0] + wp.vec3(f90, f90, f90) * ab[1]
+    ...
+
+
+@wp.func(inline=True)
+def ambient_irradiance(scene: SceneGPU, amb: AmbientGPU, n: wp.vec3) -> wp.vec3:
+    """The irradiance the diffuse ambient term sees at world normal ``n``: the dome's
+    plus the lights' indirect estimate ``amb.indirect`` (zero when off)."""
+    e = amb.indirect
+    if amb.enabled != 0:
+        e = dome_irradiance(scene, amb, n) + e
+    return e
+
+
+@wp.func(inline=True)
+def direction_free(scene: SceneGPU, amb: AmbientGPU) -> bool:
+    """Whether the dome's light is the same from every direction (no dome, or an
+    untextured one): then ``ambient_irradiance`` and ``prefiltered_radiance`` do not
+    depend on the normal or the direction, and ``environment_radiance`` is one colour."""
+    return amb.enabled == 0 or (scene.environment.texture < 0 and amb.levels == 0 and amb.sh_bands == 1)
+
+
+@wp.func_native(cpp("ambient_diffuse") + "return wh_ambient_diffuse(true, e, n, v, kd, f0);")
+def ambient_diffuse_under(e: wp.vec3, n: wp.vec3, v: wp.vec3, kd: wp.vec3, f0: wp.vec3) -> wp.vec3:
+    """``ambient_diffuse`` given the irradiance ``e`` (``ambient_irradiance``)."""
+    ...
 
 
 @wp.func(inline=True)
@@ -124,13 +138,7 @@ def ambient_diffuse(scene: SceneGPU, amb: AmbientGPU, n: wp.vec3, v: wp.vec3, kd
     """Diffuse ambient light: ``kd / pi * E(n) * (1 - F(n.v))`` (the diffuse lobe of
     ``brdf.brdf_diffuse`` integrated against uniform light) with ``E`` the dome's
     irradiance plus the indirect estimate ``amb.indirect`` (zero when off)."""
-    e = amb.indirect
-    if amb.enabled != 0:
-        e = dome_irradiance(scene, amb, n) + e
-    if wp.max(wp.max(e[0], e[1]), e[2]) <= 0.0:
-        return wp.vec3(0.0, 0.0, 0.0)
-    keep = diffuse_view_weight(f0, wp.clamp(wp.dot(n, v), 0.0, 1.0))
-    return wp.cw_mul(wp.cw_mul(kd * INV_PI, e), keep)
+    return ambient_diffuse_under(ambient_irradiance(scene, amb, n), n, v, kd, f0)
 
 
 @wp.func(inline=True)

@@ -23,10 +23,13 @@ CPU performance notes: the kernel follows ``Launcher.launch_pixels`` (one launch
 per row on the CPU, so the big ``SceneGPU``/``AmbientGPU`` arguments are copied once
 per row; one thread per pixel on CUDA).  The lights' direct term of an item's pixels
 comes first, from a native row loop vectorised across pixels
-(``direct_rows.direct_span``): without shadow maps their sum, written into
-``color_out`` and read back by the per-pixel loop, which adds the rest; with them one
-light at a time into ``color_out``, each term times its visibility summed into a buffer
-of the pass's own.  The module compiles with FMA contraction.
+(``direct_rows``): without shadow maps and a probe, under no dome or an untextured one
+(``ambient.direction_free``: the ambient terms are the same for every normal), the
+loop computes each pixel's whole radiance (``lit_span``) and the row is done; under a
+textured dome the lights' sum (``direct_span``), written into ``color_out`` and read
+back by the per-pixel loop, which adds the rest; with shadow maps one light at a time
+into ``color_out``, each term times its visibility summed into a buffer of the pass's
+own, then the per-pixel loop.  The module compiles with FMA contraction.
 """
 
 from __future__ import annotations
@@ -44,7 +47,8 @@ from ..parallel import Launcher
 from ..scene.device import DeviceScene
 from ..scene.device.environment import environment_radiance
 from ..timing import StageTimer
-from .direct_rows import direct_span
+from .ambient import ambient_irradiance, direction_free
+from .direct_rows import direct_span, lit_span
 from .probe_kernels import ProbeGPU, probe_specular
 from .shading import diffuse_albedo, shade_surface, shade_surface_with
 from .shadow_map_kernels import ShadowMapsGPU, shadow_visibility
@@ -142,6 +146,13 @@ def _make_shade_kernel(shadowed: bool, probed: bool = False) -> wp.Kernel:
                         )
                     direct[y, x] = direct[y, x] + term
         else:
+            if wp.static(not probed):
+                if direction_free(scene, amb):  # the whole radiance in the row loop
+                    up = wp.vec3(0.0, 0.0, 1.0)  # (any direction)
+                    e = ambient_irradiance(scene, amb, up)
+                    sky = environment_radiance(scene, up)
+                    lit_span(scene, amb, cam, gb, color_out, 0, scene.light_count, e, sky, y, first, stop)
+                    return
             direct_span(scene, cam, gb, direct, 0, scene.light_count, y, first, stop)
         for x in range(first, stop):
             color_out[y, x] = shade_pixel(scene, amb, cam, gb, probe, x, y, direct[y, x])

@@ -1,7 +1,10 @@
-"""The deferred pass's direct light as a native row loop: the lights' unshadowed
-responses (``shading.direct_light``, summed over a range of the scene's lights: all of
-them, or one at a time where shadow maps weigh each) for a span of one row, across
-pixels.
+"""The deferred pass's lighting as native row loops, across pixels: ``direct_span``, the
+lights' unshadowed responses (``shading.direct_light``, summed over a range of the
+scene's lights: all of them, or one at a time where shadow maps weigh each) for a span
+of one row; ``lit_span``, the pixels' whole radiance (``shading.shade_surface`` over
+that sum, the background's radiance where no surface is hit) where the dome's light is
+the same from every direction (``ambient.direction_free``: no dome or an untextured
+one), so the ambient terms need no lookup per pixel.
 
 The loop takes ``CHUNK_CPU`` pixels at a time: (1) a gather of the pixels' G-buffer
 channels and material flags, (2) the view direction and the diffuse colour
@@ -10,8 +13,10 @@ channels and material flags, (2) the view direction and the diffuse colour
 and its cone decided once (the compiler vectorises this across pixels; a rect light's
 chunk takes the short path where the rectangle lies above every pixel's horizon, the
 clipped polygon where it lies above none, both and a choice per pixel where it is
-mixed), and (4) the sum.  The same lambdas as the scalar
-functions, so the same arithmetic; background pixels get a value the caller ignores.
+mixed), and (4) the sum, or in ``lit_span`` the pixel's radiance
+(``wh_surface_radiance`` with the split-sum ``wh_env_brdf`` times the dome's colour).
+The same lambdas as the scalar functions, so the same arithmetic; in ``direct_span``
+background pixels get a value the caller ignores.
 """
 
 from __future__ import annotations
@@ -21,54 +26,26 @@ import warp as wp
 from ..core.camera import CameraGPU
 from ..core.gbuffer import GBufferArrays
 from ..core.native_rows import CHUNK_CPP, row_cpp
-from ..core.scene_gpu import SceneGPU
+from ..core.scene_gpu import AmbientGPU, SceneGPU
 from .native_math import cpp
 
-_DIRECT_SPAN_CPP = (
-    CHUNK_CPP
-    + cpp("light_sample", "light_response", "diffuse_albedo")
-    + f"""
-const wp::vec3* position = {row_cpp("gb.position", "y", "wp::vec3")};
-const wp::vec3* normal = {row_cpp("gb.normal", "y", "wp::vec3")};
-const wp::vec3* albedo = {row_cpp("gb.albedo", "y", "wp::vec3")};
-const wp::vec3* specular = {row_cpp("gb.specular", "y", "wp::vec3")};
-const int* material = {row_cpp("gb.material_id", "y", "int")};
-const auto optics = (decltype(gb.optics.data))((char*)gb.optics.data + (size_t)y * gb.optics.strides[0]);
-wp::vec3* out = {row_cpp("direct_out", "y", "wp::vec3", const=False)};
-const bool dome = scene.environment.enabled != 0;
-const wp::vec3 eye = cam.origin;
-float px[CHUNK], py[CHUNK], pz[CHUNK], nx[CHUNK], ny[CHUNK], nz[CHUNK], vx[CHUNK], vy[CHUNK], vz[CHUNK];
-float kr[CHUNK], kg[CHUNK], kb[CHUNK], fr[CHUNK], fg[CHUNK], fb[CHUNK], rough[CHUNK], opac[CHUNK], ior[CHUNK];
-float dr[CHUNK], dg[CHUNK], db[CHUNK], cr[CHUNK], cg[CHUNK], cb[CHUNK];
-int flags[CHUNK];
-for (int xs = x0; xs < x1; xs += CHUNK) {{
-    const int n = x1 - xs < CHUNK ? x1 - xs : CHUNK;
-    for (int j = 0; j < n; ++j) {{
-        const int x = xs + j;
-        const wp::vec3 p = position[x], nn = normal[x], a = albedo[x], f = specular[x];
-        px[j] = p[0]; py[j] = p[1]; pz[j] = p[2];
-        nx[j] = nn[0]; ny[j] = nn[1]; nz[j] = nn[2];
-        kr[j] = a[0]; kg[j] = a[1]; kb[j] = a[2];
-        fr[j] = f[0]; fg[j] = f[1]; fb[j] = f[2];
-        rough[j] = optics[x].roughness;
-        opac[j] = optics[x].opacity;
-        ior[j] = optics[x].ior;
-        const int mid = material[x];
-        flags[j] = mid >= 0 ? scene.materials.data[mid].flags : 0;
-    }}
-    for (int j = 0; j < n; ++j) {{
+# (2) the view direction and the diffuse colour of the chunk's pixels, then (3) every
+# light's term summed into dr, dg, db.
+_LIGHTS_CPP = """
+    for (int j = 0; j < n; ++j) {
         const wp::vec3 nn(nx[j], ny[j], nz[j]);
         const wp::vec3 v = wh_normalize(wp::sub(eye, wp::vec3(px[j], py[j], pz[j])));
-        const wp::vec3 kd = wh_diffuse_albedo(false, dome, nn, v, wp::vec3(kr[j], kg[j], kb[j]), opac[j], ior[j], flags[j]);
+        const wp::vec3 kd = wh_diffuse_albedo(false, dome, nn, v, wp::vec3(ar[j], ag[j], ab[j]), opac[j], ior[j],
+                                              flags[j]);
         vx[j] = v[0]; vy[j] = v[1]; vz[j] = v[2];
         kr[j] = kd[0]; kg[j] = kd[1]; kb[j] = kd[2];
         dr[j] = 0.0f; dg[j] = 0.0f; db[j] = 0.0f;
-    }}
-    for (int li = lights_begin; li < lights_end; ++li) {{
+    }
+    for (int li = lights_begin; li < lights_end; ++li) {
         const auto light = scene.lights.data[li];
         const bool has_cone = wh_has_cone(light);
         const float cos_inner = has_cone ? wh_cone_inner(light) : 0.0f;
-        auto lane = [&](const int kind, const int rect_path, const int j) WH_INLINE {{
+        auto lane = [&](const int kind, const int rect_path, const int j) WH_INLINE {
             const wp::vec3 p(px[j], py[j], pz[j]);
             const wp::vec3 nn(nx[j], ny[j], nz[j]);
             wp::vec3 wi, e_normal, irradiance;
@@ -78,51 +55,151 @@ for (int xs = x0; xs < x1; xs += CHUNK) {{
             const wp::vec3 c = wh_light_response(false, wi, e_normal, irradiance, nn, wp::vec3(vx[j], vy[j], vz[j]),
                                                  wp::vec3(kr[j], kg[j], kb[j]), wp::vec3(fr[j], fg[j], fb[j]), rough[j]);
             cr[j] = c[0]; cg[j] = c[1]; cb[j] = c[2];
-        }};
-        if (light.kind == WH_DISTANT) {{
+        };
+        if (light.kind == WH_DISTANT) {
             for (int j = 0; j < n; ++j) lane(WH_DISTANT, WH_RECT_ANY, j);
-        }} else if (light.kind == WH_SPHERE) {{
+        } else if (light.kind == WH_SPHERE) {
             for (int j = 0; j < n; ++j) lane(WH_SPHERE, WH_RECT_ANY, j);
-        }} else if (light.kind == WH_RECT) {{
+        } else if (light.kind == WH_RECT) {
             int above = 0;
-            for (int j = 0; j < n; ++j) {{
+            for (int j = 0; j < n; ++j) {
                 above += wh_rect_above(wp::sub(light.position, wp::vec3(px[j], py[j], pz[j])), light.axis_u,
                                        light.axis_v, wp::vec3(nx[j], ny[j], nz[j])) ? 1 : 0;
-            }}
-            if (above == n) {{
+            }
+            if (above == n) {
                 for (int j = 0; j < n; ++j) lane(WH_RECT, WH_RECT_ABOVE, j);
-            }} else if (above == 0) {{
+            } else if (above == 0) {
                 for (int j = 0; j < n; ++j) lane(WH_RECT, WH_RECT_CLIPPED, j);
-            }} else {{
+            } else {
                 for (int j = 0; j < n; ++j) lane(WH_RECT, WH_RECT_ANY, j);
-            }}
-        }} else {{
+            }
+        } else {
             for (int j = 0; j < n; ++j) lane(-1, WH_RECT_ANY, j);
-        }}
-        for (int j = 0; j < n; ++j) {{
+        }
+        for (int j = 0; j < n; ++j) {
             dr[j] += cr[j]; dg[j] += cg[j]; db[j] += cb[j];
-        }}
-    }}
-    for (int j = 0; j < n; ++j) out[xs + j] = wp::vec3(dr[j], dg[j], db[j]);
-}}
+        }
+    }
 """
-)
+
+# (4) of ``lit_span``: the radiance of each pixel, ``shading.shade_surface`` under a
+# direction-free dome (irradiance ``e``, radiance ``sky`` from everywhere, zero
+# without a dome), the background's ``sky`` where no surface is hit.
+_RADIANCE_CPP = """
+    for (int j = 0; j < n; ++j) {
+        const wp::vec3 nn(nx[j], ny[j], nz[j]);
+        const wp::vec3 v(vx[j], vy[j], vz[j]);
+        const wp::vec3 f0(fr[j], fg[j], fb[j]);
+        const wp::vec3 glossy = wh_select(amb.enabled != 0, wp::cw_mul(wh_env_brdf(amb.brdf_lut, f0, rough[j],
+                                                                                   wp::dot(nn, v)), sky),
+                                          wp::vec3(0.0f));
+        const wp::vec3 c = wh_surface_radiance(false, dome, nn, v, wp::vec3(ar[j], ag[j], ab[j]),
+                                               wp::vec3(kr[j], kg[j], kb[j]), f0, wp::vec3(er[j], eg[j], eb[j]),
+                                               opac[j], ior[j], flags[j], wp::vec3(dr[j], dg[j], db[j]), e, glossy,
+                                               sky);
+        cr[j] = hit[j] ? c[0] : sky[0]; cg[j] = hit[j] ? c[1] : sky[1]; cb[j] = hit[j] ? c[2] : sky[2];
+    }
+    for (int j = 0; j < n; ++j) out[xs + j] = wp::vec3(cr[j], cg[j], cb[j]);
+"""
 
 
-@wp.func_native(_DIRECT_SPAN_CPP)
+def _span_cpp(lit: bool) -> str:
+    """The C++ of ``direct_span`` (``lit`` false: the lights' sum into ``target``) or of
+    ``lit_span`` (true: the emission and the hit record gathered too, the radiance into
+    ``target``)."""
+    lit_gather = (
+        """
+        const wp::vec3 em = emission[x];
+        er[j] = em[0]; eg[j] = em[1]; eb[j] = em[2];
+        hit[j] = triangle[x] >= 0;"""
+        if lit
+        else ""
+    )
+    lit_rows = (
+        f"""
+const wp::vec3* emission = {row_cpp("gb.emission", "y", "wp::vec3")};
+const int* triangle = {row_cpp("gb.triangle_id", "y", "int")};
+float er[CHUNK], eg[CHUNK], eb[CHUNK];
+bool hit[CHUNK];"""
+        if lit
+        else ""
+    )
+    store = _RADIANCE_CPP if lit else "    for (int j = 0; j < n; ++j) out[xs + j] = wp::vec3(dr[j], dg[j], db[j]);\n"
+    return (
+        CHUNK_CPP
+        + cpp("light_sample", "light_response", "diffuse_albedo", *(("env_brdf", "surface_radiance") if lit else ()))
+        + f"""
+const wp::vec3* position = {row_cpp("gb.position", "y", "wp::vec3")};
+const wp::vec3* normal = {row_cpp("gb.normal", "y", "wp::vec3")};
+const wp::vec3* albedo = {row_cpp("gb.albedo", "y", "wp::vec3")};
+const wp::vec3* specular = {row_cpp("gb.specular", "y", "wp::vec3")};
+const int* material = {row_cpp("gb.material_id", "y", "int")};
+const auto optics = (decltype(gb.optics.data))((char*)gb.optics.data + (size_t)y * gb.optics.strides[0]);
+wp::vec3* out = {row_cpp("target", "y", "wp::vec3", const=False)};
+const bool dome = scene.environment.enabled != 0;
+const wp::vec3 eye = cam.origin;
+float px[CHUNK], py[CHUNK], pz[CHUNK], nx[CHUNK], ny[CHUNK], nz[CHUNK], vx[CHUNK], vy[CHUNK], vz[CHUNK];
+float ar[CHUNK], ag[CHUNK], ab[CHUNK], kr[CHUNK], kg[CHUNK], kb[CHUNK], fr[CHUNK], fg[CHUNK], fb[CHUNK];
+float rough[CHUNK], opac[CHUNK], ior[CHUNK], dr[CHUNK], dg[CHUNK], db[CHUNK], cr[CHUNK], cg[CHUNK], cb[CHUNK];
+int flags[CHUNK];{lit_rows}
+for (int xs = x0; xs < x1; xs += CHUNK) {{
+    const int n = x1 - xs < CHUNK ? x1 - xs : CHUNK;
+    for (int j = 0; j < n; ++j) {{
+        const int x = xs + j;
+        const wp::vec3 p = position[x], nn = normal[x], a = albedo[x], f = specular[x];
+        px[j] = p[0]; py[j] = p[1]; pz[j] = p[2];
+        nx[j] = nn[0]; ny[j] = nn[1]; nz[j] = nn[2];
+        ar[j] = a[0]; ag[j] = a[1]; ab[j] = a[2];
+        fr[j] = f[0]; fg[j] = f[1]; fb[j] = f[2];
+        rough[j] = optics[x].roughness;
+        opac[j] = optics[x].opacity;
+        ior[j] = optics[x].ior;
+        const int mid = material[x];
+        flags[j] = mid >= 0 ? scene.materials.data[mid].flags : 0;{lit_gather}
+    }}
+{_LIGHTS_CPP}{store}}}
+"""
+    )
+
+
+@wp.func_native(_span_cpp(lit=False))
 def direct_span(
     scene: SceneGPU,
     cam: CameraGPU,
     gb: GBufferArrays,
-    direct_out: wp.array2d(dtype=wp.vec3),
+    target: wp.array2d(dtype=wp.vec3),
     lights_begin: int,
     lights_end: int,
     y: int,
     x0: int,
     x1: int,
 ):
-    """Into ``direct_out[y, x]`` for ``x0 <= x < x1``: the sum over the scene's lights
+    """Into ``target[y, x]`` for ``x0 <= x < x1``: the sum over the scene's lights
     ``lights_begin <= i < lights_end`` of each one's unshadowed response at the pixel's
     G-buffer point (``shading.direct_light`` with ``shading.diffuse_albedo``'s colour),
     pixel by pixel the same arithmetic (one light: its term alone)."""
+    ...
+
+
+@wp.func_native(_span_cpp(lit=True))
+def lit_span(
+    scene: SceneGPU,
+    amb: AmbientGPU,
+    cam: CameraGPU,
+    gb: GBufferArrays,
+    target: wp.array2d(dtype=wp.vec3),
+    lights_begin: int,
+    lights_end: int,
+    e: wp.vec3,
+    sky: wp.vec3,
+    y: int,
+    x0: int,
+    x1: int,
+):
+    """Into ``target[y, x]`` for ``x0 <= x < x1``: the pixel's radiance under a
+    direction-free dome (``ambient.direction_free``), given its irradiance ``e``
+    (``ambient.ambient_irradiance``) and its radiance ``sky`` (``environment_radiance``,
+    zero without a dome): ``shading.shade_surface`` over the unshadowed sum of lights
+    ``lights_begin`` .. ``lights_end - 1`` (as ``direct_span``), ``sky`` where the
+    pixel sees no surface; pixel by pixel the same arithmetic."""
     ...

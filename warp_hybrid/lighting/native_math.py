@@ -1,22 +1,24 @@
-"""The BRDF's and the lights' arithmetic, written once as C++ (lambdas), for two kinds of caller.
+"""The BRDF's, the lights' and the shading sum's arithmetic, written once as C++ (lambdas), for
+two kinds of caller.
 
-* The scalar ``@wp.func_native`` functions of ``brdf.py`` and ``lights.py`` (what the
-  tracer, the shadow passes and the tests call) each hold ``cpp(name)``: the lambdas
-  the function needs, then one call.
-* The deferred pass's row loop (``direct_rows.py``) evaluates the same lambdas over a
+* The scalar ``@wp.func_native`` functions of ``brdf.py``, ``lights.py``, ``ambient.py``
+  and ``shading.py`` (what the tracer, the shadow passes and the tests call) each hold
+  ``cpp(name)``: the lambdas the function needs, then one call.
+* The deferred pass's row loops (``direct_rows.py``) evaluate the same lambdas over a
   chunk of pixels at a time, one light at a time, as plain arithmetic the compiler
   vectorises across pixels (a light's kind and cone are the same for every pixel of the
-  loop, so they are decided outside it).
+  loop, so they are decided outside it), and where the dome is direction-free the
+  ambient terms and the sum too.
 
-The Python docstrings in ``brdf.py`` and ``lights.py`` state the model; the text here is
-its only implementation.  Where a result is a choice, the lambdas compute both sides and
-select (branches would stop the row loop's vectorisation); a ``scalar`` argument (true in
-the scalar functions) lets the costly ones skip, for one point, the side that is not
-chosen.  Every piece names the pieces it calls (``Piece.needs``), and
-``cpp`` emits a piece after everything it needs, once.  Names start with ``wh_`` (the
-snippets they are pasted into have arguments of their own).  On the CPU the lambdas are
-forced inline (``WH_INLINE``): a light's kind passed as a literal then folds away and
-the row loop's body is straight-line code.
+The Python docstrings of the functions (``brdf.py``, ``lights.py``, ``ambient.py``,
+``shading.py``) state the model; the text here is its only implementation.  Where a
+result is a choice, the lambdas compute both sides and select (branches would stop the
+row loop's vectorisation); a ``scalar`` argument (true in the scalar functions) lets the
+costly ones skip, for one point, the side that is not chosen.  Every piece names the
+pieces it calls (``Piece.needs``), and ``cpp`` emits a piece after everything it needs,
+once.  Names start with ``wh_`` (the snippets they are pasted into have arguments of
+their own). On the CPU the lambdas are forced inline (``WH_INLINE``): a light's kind
+passed as a literal then folds away and the row loop's body is straight-line code.
 """
 
 from __future__ import annotations
@@ -365,6 +367,67 @@ auto wh_cone_factor = [&](const auto& light, const bool has_cone, const float co
     return wh_select((flags & {int(FLAG_TRANSMISSIVE)}) == 0, albedo, glass);
 }};""",
         ("fresnel_dielectric",),
+    ),
+    # ---- the ambient terms and the sum (ambient.py, shading.py) ----
+    # The split-sum reflectance f0 A + f90 B, (A, B) bilinear in the (roughness, n.v)
+    # table ``lut`` (ambient.py ``env_brdf``).
+    "env_brdf": Piece(
+        """auto wh_env_brdf = [&](const wp::array_t<wp::vec2>& lut, const wp::vec3& f0, float roughness,
+                     float n_dot_v) WH_INLINE -> wp::vec3 {
+    const int size = lut.shape[0];
+    const float fr = wp::mul(wp::clamp(roughness, 0.0f, 1.0f), (float)(size - 1));
+    const float fv = wp::clamp(wp::sub(wp::mul(wp::clamp(n_dot_v, 0.0f, 1.0f), (float)size), 0.5f), 0.0f,
+                               (float)(size - 1));
+    const int r0 = wp::min((int)fr, size - 2);
+    const int v0 = wp::min((int)fv, size - 2);
+    const float tr = wp::sub(fr, (float)r0);
+    const float tv = wp::sub(fv, (float)v0);
+    // one channel (0: A, 1: B) of entry (r, v), and the bilinear blend of that channel
+    auto at = [&](int r, int v, int c) WH_INLINE -> float {
+        return ((const float*)((const char*)lut.data + (size_t)r * lut.strides[0] + (size_t)v * lut.strides[1]))[c];
+    };
+    auto blend = [&](int c) WH_INLINE -> float {
+        const float lower = wp::add(wp::mul(at(r0, v0, c), wp::sub(1.0f, tv)), wp::mul(at(r0, v0 + 1, c), tv));
+        const float upper = wp::add(wp::mul(at(r0 + 1, v0, c), wp::sub(1.0f, tv)), wp::mul(at(r0 + 1, v0 + 1, c), tv));
+        return wp::add(wp::mul(lower, wp::sub(1.0f, tr)), wp::mul(upper, tr));
+    };
+    const float f90 = wh_fresnel_f90(f0);
+    return wp::add(wp::mul(f0, blend(0)), wp::mul(wp::vec3(f90, f90, f90), blend(1)));
+};""",
+        ("fresnel_f90",),
+    ),
+    # Diffuse ambient light kd / pi * e * (1 - F(n.v)) under irradiance e (ambient.py
+    # ``ambient_diffuse``); zero where e has no positive channel.
+    "ambient_diffuse": Piece(
+        """auto wh_ambient_diffuse = [&](const bool scalar, const wp::vec3& e, const wp::vec3& n, const wp::vec3& v,
+                            const wp::vec3& kd, const wp::vec3& f0) WH_INLINE -> wp::vec3 {
+    const bool dark = wp::max(wp::max(e[0], e[1]), e[2]) <= 0.0f;
+    if (scalar && dark) return wp::vec3(0.0f);
+    const wp::vec3 keep = wh_diffuse_view_weight(f0, wp::clamp(wp::dot(n, v), 0.0f, 1.0f));
+    return wh_select(dark, wp::vec3(0.0f), wp::cw_mul(wp::cw_mul(wp::mul(kd, WH_INV_PI), e), keep));
+};""",
+        ("diffuse_view_weight",),
+    ),
+    # The radiance a surface sends toward v (shading.py ``shade_surface_with``): emission,
+    # the lights' ``direct`` sum, the ambient diffuse under irradiance ``e``, the glossy
+    # ``specular``, and through glass where there is a dome its radiance ``behind``.
+    "surface_radiance": Piece(
+        f"""auto wh_surface_radiance = [&](const bool scalar, const bool dome, const wp::vec3& n, const wp::vec3& v,
+                             const wp::vec3& albedo, const wp::vec3& kd, const wp::vec3& f0,
+                             const wp::vec3& emission, float opacity, float ior, int flags,
+                             const wp::vec3& direct, const wp::vec3& e, const wp::vec3& specular,
+                             const wp::vec3& behind) WH_INLINE -> wp::vec3 {{
+    wp::vec3 c = wp::add(emission, direct);
+    c = wp::add(c, wh_ambient_diffuse(scalar, e, n, v, kd, f0));
+    c = wp::add(c, specular);
+    const bool through = dome && (flags & {int(FLAG_TRANSMISSIVE)}) != 0;
+    if (scalar && !through) return c;
+    const float o = wp::clamp(opacity, 0.0f, 1.0f);
+    const float f = wh_fresnel_dielectric(wp::max(wp::dot(n, v), WH_COS_EPS), ior);
+    const wp::vec3 light = wp::mul(wp::cw_mul(albedo, behind), wp::mul(wp::sub(1.0f, o), wp::sub(1.0f, f)));
+    return wh_select(through, wp::add(c, light), c);
+}};""",
+        ("ambient_diffuse", "fresnel_dielectric"),
     ),
     # Unshadowed radiance toward v from one light sample (shading.py ``light_response``).
     "light_response": Piece(

@@ -39,10 +39,9 @@ import warp as wp
 
 from ..core.scene_gpu import FLAG_TRANSMISSIVE, AmbientGPU, SceneGPU
 from ..scene.device.environment import environment_radiance
-from .ambient import ambient_diffuse, ambient_specular
-from .brdf import fresnel_dielectric
+from .ambient import ambient_irradiance, ambient_specular
 from .lights import LightSample, light_sample
-from .native_math import COS_EPS, cpp
+from .native_math import cpp
 
 
 @wp.func_native(
@@ -80,6 +79,33 @@ def diffuse_albedo(
     return _diffuse_albedo(scene.environment.enabled != 0, n, v, albedo, opacity, ior, flags)
 
 
+@wp.func_native(
+    cpp("surface_radiance")
+    + "return wh_surface_radiance(true, dome, n, v, albedo, kd, f0, emission, opacity, ior, flags, direct, e, "
+    "specular, behind);"
+)
+def surface_radiance(
+    dome: bool,
+    n: wp.vec3,
+    v: wp.vec3,
+    albedo: wp.vec3,
+    kd: wp.vec3,
+    f0: wp.vec3,
+    emission: wp.vec3,
+    opacity: float,
+    ior: float,
+    flags: int,
+    direct: wp.vec3,
+    e: wp.vec3,
+    specular: wp.vec3,
+    behind: wp.vec3,
+) -> wp.vec3:
+    """``shade_surface_with`` given the ambient irradiance ``e`` (``ambient_irradiance``),
+    whether the scene has a dome and its radiance ``behind`` the surface (along -v; read
+    only for a transmissive material under a dome)."""
+    ...
+
+
 @wp.func(inline=True)
 def shade_surface_with(
     scene: SceneGPU,
@@ -98,14 +124,12 @@ def shade_surface_with(
 ) -> wp.vec3:
     """``shade_surface`` with the caller's glossy ambient ``specular`` in place of the
     dome's (the deferred pass gives a reflection probe's, ``probe_kernels``)."""
-    c = emission + direct
-    c += ambient_diffuse(scene, amb, n, v, kd, f0)
-    c += specular
-    if (flags & FLAG_TRANSMISSIVE) != 0 and scene.environment.enabled != 0:
-        o = wp.clamp(opacity, 0.0, 1.0)
-        f = fresnel_dielectric(wp.max(wp.dot(n, v), COS_EPS), ior)
-        c += wp.cw_mul(albedo, environment_radiance(scene, -v)) * ((1.0 - o) * (1.0 - f))
-    return c
+    dome = scene.environment.enabled != 0
+    behind = wp.vec3(0.0, 0.0, 0.0)
+    if (flags & FLAG_TRANSMISSIVE) != 0 and dome:
+        behind = environment_radiance(scene, -v)
+    e = ambient_irradiance(scene, amb, n)
+    return surface_radiance(dome, n, v, albedo, kd, f0, emission, opacity, ior, flags, direct, e, specular, behind)
 
 
 @wp.func(inline=True)

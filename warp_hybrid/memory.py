@@ -5,9 +5,9 @@ that refuses what cannot fit.
 size the buffers: the G-buffer channels (``core.gbuffer.CHANNELS``), the three radiance
 layers and the per-light visibility of ``FrameBuffers``, the rasterizer's 64-bit key
 slice per host thread, the passes' own per-pixel lists (focus list and weights, ray
-counts and transmittance, the surface pass's uv footprints, the shadowed lighting pass's
-direct sums (counted whether shadow maps are on or not), the post's luma, 8-bit images
-and FXAA edge list: ``PASS_BYTES_PER_PIXEL`` plus ``PASS_BYTES_PER_PIXEL_LIGHT`` per light), a supersampled frame's sums, a
+counts and transmittance, the shadowed lighting pass's direct sums (counted whether
+shadow maps are on or not), the post's luma, 8-bit images and FXAA edge list:
+``PASS_BYTES_PER_PIXEL`` plus ``PASS_BYTES_PER_PIXEL_LIGHT`` per light), a supersampled frame's sums, a
 supersampled window's own G-buffer and layers, the second visibility layer behind
 alpha-blended surfaces where the scene has any, and the host copies a frame returns.
 ``scene_bytes`` is the device copy of the scene with its BVHs; ``shadow_map_bytes``
@@ -36,7 +36,7 @@ from .scene.model import Scene
 #: Radiance layers of ``FrameBuffers`` (raster, traced, composed), one vec3 each.
 COLOR_LAYERS = 3
 #: The passes' own per-pixel buffers, and the part of them that grows with the lights.
-PASS_BYTES_PER_PIXEL = 88
+PASS_BYTES_PER_PIXEL = 72
 PASS_BYTES_PER_PIXEL_LIGHT = 4
 #: Temporal reuse: two frames of history, each a colour, an age, a depth and a normal.
 REUSE_BYTES_PER_PIXEL = 2 * (12 + 4 + 4 + 12)

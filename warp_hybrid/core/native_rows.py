@@ -19,6 +19,28 @@ constexpr int CHUNK = {CHUNK_CPU};
 #endif
 """
 
+#: C++ every snippet of native lambdas starts with: ``WH_INLINE``, the attribute that forces
+#: them inline on the CPU (a literal argument then folds away and a row loop's body is
+#: straight-line code), and two helpers that keep a loop over lanes vectorisable.
+LAMBDA_HEADER_CPP = """
+#if !defined(WH_INLINE)
+#if defined(__CUDA_ARCH__)
+#define WH_INLINE
+#else
+#define WH_INLINE __attribute__((always_inline))
+#endif
+#endif
+// Per component (a select of whole vectors would keep them in memory, unvectorised).
+auto wh_select = [&](const bool c, const wp::vec3& a, const wp::vec3& b) WH_INLINE -> wp::vec3 {
+    return wp::vec3(c ? a[0] : b[0], c ? a[1] : b[1], c ? a[2] : b[2]);
+};
+// ``wp::normalize``'s arithmetic (a zero vector stays zero).
+auto wh_normalize = [&](const wp::vec3& a) WH_INLINE -> wp::vec3 {
+    const float l = wp::length(a);
+    return wh_select(l > 0.0f, wp::div(a, l), wp::vec3(0.0f));
+};
+"""
+
 
 def row_cpp(array: str, row: str, ctype: str, const: bool = True) -> str:
     """C++ expression: a pointer to ``ctype`` at the start of row ``row`` of the Warp array

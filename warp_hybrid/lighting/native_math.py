@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import warp as wp
 
 from ..core.constants import ALPHA_MIN, INV_PI, LUMA_709_CPP, PI
+from ..core.native_rows import LAMBDA_HEADER_CPP
 from ..core.scene_gpu import FLAG_TRANSMISSIVE
 from ..scene.model import LightKind
 
@@ -48,15 +49,10 @@ class Piece:
     needs: tuple[str, ...] = ()
 
 
-#: The C++ that every snippet starts with: the inline attribute and the constants.
-_HEADER = f"""
-#if !defined(WH_INLINE)
-#if defined(__CUDA_ARCH__)
-#define WH_INLINE
-#else
-#define WH_INLINE __attribute__((always_inline))
-#endif
-#endif
+#: The C++ that every snippet starts with: the lambdas' header and the constants.
+_HEADER = (
+    LAMBDA_HEADER_CPP
+    + f"""
 constexpr float WH_PI = {_f(PI)};
 constexpr float WH_INV_PI = {_f(INV_PI)};
 constexpr float WH_ALPHA_MIN = {_f(ALPHA_MIN)};
@@ -68,16 +64,8 @@ constexpr int WH_RECT_ANY = 0;
 constexpr int WH_RECT_ABOVE = 1;
 constexpr int WH_RECT_CLIPPED = 2;
 constexpr int WH_RECT_ONE = 3;
-// Per component (a select of whole vectors would keep them in memory, unvectorised).
-auto wh_select = [&](const bool c, const wp::vec3& a, const wp::vec3& b) WH_INLINE -> wp::vec3 {{
-    return wp::vec3(c ? a[0] : b[0], c ? a[1] : b[1], c ? a[2] : b[2]);
-}};
-// ``wp::normalize``'s arithmetic (a zero vector stays zero).
-auto wh_normalize = [&](const wp::vec3& a) WH_INLINE -> wp::vec3 {{
-    const float l = wp::length(a);
-    return wh_select(l > 0.0f, wp::div(a, l), wp::vec3(0.0f));
-}};
 """
+)
 
 PIECES: dict[str, Piece] = {
     # ---- the BRDF (brdf.py) ----

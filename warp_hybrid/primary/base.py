@@ -15,8 +15,6 @@ from __future__ import annotations
 
 from abc import abstractmethod
 
-import warp as wp
-
 from ..core.camera import CameraGPU
 from ..core.gbuffer import GBuffer
 from ..core.passes import FrameContext, RenderPass
@@ -33,7 +31,6 @@ class PrimaryVisibility(RenderPass):
     def __init__(self, launcher: Launcher) -> None:
         """Use ``launcher`` for the device and the host threads."""
         self.launcher = launcher
-        self._footprint_scratch: wp.array | None = None
         launcher.ensure_loaded(kernels.surface_kernel)  # the primary kernels' one module
 
     def execute(self, frame: FrameContext) -> None:
@@ -51,26 +48,10 @@ class PrimaryVisibility(RenderPass):
                 f"camera is for {camera.width}x{camera.height} but the G-buffer is {gbuffer.width}x{gbuffer.height}"
             )
         self.find_hits(scene, camera, gbuffer, timer, rows)
-        footprints = self._footprints(gbuffer)
         with timer.stage("surface"):
             self.launcher.launch_pixels(
-                kernels.surface_kernel,
-                gbuffer.height,
-                gbuffer.width,
-                [scene.gpu, camera, gbuffer.rows(), footprints],
-                rows=rows,
+                kernels.surface_kernel, gbuffer.height, gbuffer.width, [scene.gpu, camera, gbuffer.rows()], rows=rows
             )
-
-    def _footprints(self, gbuffer: GBuffer) -> wp.array:
-        """The surface kernel's scratch of uv footprints for ``gbuffer``'s pixels (flat),
-        allocated again only when its size or device changes."""
-        size = gbuffer.width * gbuffer.height
-        if self._footprint_scratch is None or (self._footprint_scratch.size, self._footprint_scratch.device) != (
-            size,
-            gbuffer.device,
-        ):
-            self._footprint_scratch = wp.empty(size, dtype=wp.vec4, device=gbuffer.device)
-        return self._footprint_scratch
 
     @abstractmethod
     def find_hits(

@@ -22,7 +22,9 @@
   non-empty one, else ``wp.mesh_query_ray``.
 * ``surface_kernel`` (per pixel): the surface pass both paths share: the material at
   the hit record, textures filtered over the pixel's footprint, into every other
-  G-buffer channel.
+  G-buffer channel, in a native row loop (the footprints and the surface's frame
+  vectorised across pixels; the lambdas of ``surface_at_grad``, so the same bits); a
+  material with a normal map goes pixel by pixel through ``surface_at_grad``.
 * ``listed_primary_kernel`` (per entry of a pixel list, grouped): the ray-cast hit
   record and the surface pass of only the listed pixels, for sub-samples of the focus
   window (``trace.fovea``); a listed pixel that misses gets the background's hit record.
@@ -40,12 +42,12 @@ from __future__ import annotations
 import warp as wp
 
 from ..core.camera import CAMERA_RAY_CPP, CameraGPU, pixel_ray
-from ..core.constants import luma709
+from ..core.constants import LUMA_709_CPP, luma709
 from ..core.gbuffer import BACKGROUND, GBufferRows, Optics
 from ..core.native_rows import CHUNK_CPP
 from ..core.pixel_list import listed_pixel
 from ..core.scene_gpu import SceneGPU
-from ..scene.device.surface import UV_FOOTPRINT_CPP, is_cut_away, samples_textures, surface_at_grad
+from ..scene.device.surface import SURFACE_CPP, UV_FOOTPRINT_CPP, is_cut_away, samples_textures, surface_at_grad
 from ..scene.device.wide_bvh import WideBVHGPU, WideHit, wide_closest
 from .clipping import ProjectedPoints, in_guard_band, project, raster_clipped, to_camera
 from .coverage import EMPTY_KEY, RasterTarget, raster_triangle
@@ -211,24 +213,6 @@ def _write_miss_record(gb: GBufferRows, i: int):
     gb.triangle_id[i] = wp.static(int(BACKGROUND["triangle_id"]))
     gb.depth[i] = wp.static(float(BACKGROUND["depth"]))
     gb.barycentric[i] = wp.vec2(wp.static(float(BACKGROUND["barycentric"])))
-
-
-@wp.func(inline=True)
-def _write_background_surface(gb: GBufferRows, i: int):
-    """Store the background's value of every channel but the hit record at flat index ``i``."""
-    gb.position[i] = wp.vec3(wp.static(float(BACKGROUND["position"])))
-    gb.normal[i] = wp.vec3(wp.static(float(BACKGROUND["normal"])))
-    gb.geometric_normal[i] = wp.vec3(wp.static(float(BACKGROUND["geometric_normal"])))
-    gb.albedo[i] = wp.vec3(wp.static(float(BACKGROUND["albedo"])))
-    gb.specular[i] = wp.vec3(wp.static(float(BACKGROUND["specular"])))
-    gb.emission[i] = wp.vec3(wp.static(float(BACKGROUND["emission"])))
-    optics = Optics()
-    optics.reflectivity = wp.static(float(BACKGROUND["optics"]))
-    optics.ior = wp.static(float(BACKGROUND["optics"]))
-    optics.opacity = wp.static(float(BACKGROUND["optics"]))
-    optics.roughness = wp.static(float(BACKGROUND["optics"]))
-    gb.optics[i] = optics
-    gb.material_id[i] = wp.static(int(BACKGROUND["material_id"]))
 
 
 @wp.func(inline=True)
@@ -442,30 +426,46 @@ def raycast_kernel(
             _cast(scene, wide, cam, gb, x, y)
 
 
-# The surface pass's row loop of footprints: a chunk of pixels at a time, (1) the
-# corners and corner uvs of each pixel's triangle (a gather, none for the background),
-# (2) the camera ray and ``UV_FOOTPRINT_CPP`` as plain arithmetic over the chunk (the
-# compiler vectorises it across pixels), (3) the stores.  Every hit pixel gets its
-# footprint, textured or not (a material without textures never reads it).
-_FOOTPRINT_SPAN_CPP = (
+def _background_cpp(channel: str) -> str:
+    """C++ literal of ``gbuffer.BACKGROUND[channel]`` (a float channel's value)."""
+    return f"{float(BACKGROUND[channel])!r}f"
+
+
+# The surface pass's row loop: a chunk of pixels at a time, (1) a gather of each pixel's
+# triangle corners, corner uvs and normals and its barycentrics (none for the
+# background), (2) the camera ray, the uv footprint (``UV_FOOTPRINT_CPP``) and the
+# surface's frame (``wh_surface_frame``) as plain arithmetic over the chunk (the compiler
+# vectorises it across pixels), (3) pixel by pixel the material (``wh_material``, its
+# textures filtered over the footprint) and the stores of every channel but the hit
+# record: the background's values where no surface is hit.  A pixel whose material has
+# a normal map is left for the scalar path (``surface_at_grad``); the loop returns how
+# many it left.  The same lambdas as ``surface_at_grad``, so the same bits.
+_SURFACE_SPAN_CPP = (
     CHUNK_CPP
+    + SURFACE_CPP
     + f"""
-const wp::vec3* corners = points.data;
-const int* index = indices.data;
-const wp::vec2* uvs = corner_uvs.data;
+const wp::vec3* corners = scene.points.data;
+const int* index = scene.indices.data;
+const wp::vec2* uvs = scene.corner_uvs.data;
+const wp::vec3* corner_normals = scene.corner_normals.data;
 const wp::vec3 o = cam.origin;
 const float py = wp::add((float)y, cam.sample[1]);
 const size_t row = (size_t)y * (size_t)cam.width;
-const int* tris = triangle_id.data + row;
-wp::vec4* out = footprints.data + row;
+const int* tris = gb.triangle_id.data + row;
+const wp::vec2* bary = gb.barycentric.data + row;
 {_CORNER_LANES_CPP}
 float u0[CHUNK], v0[CHUNK], u1[CHUNK], v1[CHUNK], u2[CHUNK], v2[CHUNK];
-float f0[CHUNK], f1[CHUNK], f2[CHUNK], f3[CHUNK];
+float mx[CHUNK], my[CHUNK], mz[CHUNK], nx1[CHUNK], ny1[CHUNK], nz1[CHUNK], ox[CHUNK], oy[CHUNK], oz[CHUNK];
+float bu[CHUNK], bv[CHUNK], f0[CHUNK], f1[CHUNK], f2[CHUNK], f3[CHUNK];
+float qx[CHUNK], qy[CHUNK], qz[CHUNK], gx[CHUNK], gy[CHUNK], gz[CHUNK], sx[CHUNK], sy[CHUNK], sz[CHUNK];
+float tu[CHUNK], tv[CHUNK];
+bool front[CHUNK], away[CHUNK];
+int left = 0;
 for (int xs = x0; xs < x1; xs += CHUNK) {{
     const int n = x1 - xs < CHUNK ? x1 - xs : CHUNK;
     for (int j = 0; j < n; ++j) {{
-        wp::vec3 a(0.0f), b(0.0f), c(0.0f);
-        wp::vec2 ta(0.0f), tb(0.0f), tc(0.0f);
+        wp::vec3 a(0.0f), b(0.0f), c(0.0f), na(0.0f), nb(0.0f), nc(0.0f);
+        wp::vec2 ta(0.0f), tb(0.0f), tc(0.0f), w(0.0f);
         const int tri = tris[xs + j];
         if (tri >= 0) {{
             const int k = 3 * tri;
@@ -475,9 +475,17 @@ for (int xs = x0; xs < x1; xs += CHUNK) {{
             ta = uvs[k];
             tb = uvs[k + 1];
             tc = uvs[k + 2];
+            na = corner_normals[k];
+            nb = corner_normals[k + 1];
+            nc = corner_normals[k + 2];
+            w = bary[xs + j];
         }}
         {_STORE_CORNERS_CPP}
         u0[j] = ta[0]; v0[j] = ta[1]; u1[j] = tb[0]; v1[j] = tb[1]; u2[j] = tc[0]; v2[j] = tc[1];
+        mx[j] = na[0]; my[j] = na[1]; mz[j] = na[2];
+        nx1[j] = nb[0]; ny1[j] = nb[1]; nz1[j] = nb[2];
+        ox[j] = nc[0]; oy[j] = nc[1]; oz[j] = nc[2];
+        bu[j] = w[0]; bv[j] = w[1];
     }}
     for (int j = 0; j < n; ++j) {{
         {_LANE_RAY_CPP}
@@ -486,73 +494,96 @@ for (int xs = x0; xs < x1; xs += CHUNK) {{
         const wp::vec2 uv2(u2[j], v2[j]);
         {UV_FOOTPRINT_CPP}
         f0[j] = fp[0]; f1[j] = fp[1]; f2[j] = fp[2]; f3[j] = fp[3];
+        wp::vec3 position, ng, nn;
+        float u, v;
+        wh_surface_frame(p0, p1, p2, wp::vec3(mx[j], my[j], mz[j]), wp::vec3(nx1[j], ny1[j], nz1[j]),
+                         wp::vec3(ox[j], oy[j], oz[j]), uv0, uv1, uv2, bu[j], bv[j], d, position, ng, front[j], u,
+                         v, nn, away[j]);
+        qx[j] = position[0]; qy[j] = position[1]; qz[j] = position[2];
+        gx[j] = ng[0]; gy[j] = ng[1]; gz[j] = ng[2];
+        sx[j] = nn[0]; sy[j] = nn[1]; sz[j] = nn[2];
+        tu[j] = u; tv[j] = v;
     }}
-    for (int j = 0; j < n; ++j) out[xs + j] = wp::vec4(f0[j], f1[j], f2[j], f3[j]);
+    for (int j = 0; j < n; ++j) {{
+        const size_t i = row + (size_t)(xs + j);
+        const int tri = tris[xs + j];
+        if (tri < 0) {{
+            gb.position.data[i] = wp::vec3({_background_cpp("position")});
+            gb.normal.data[i] = wp::vec3({_background_cpp("normal")});
+            gb.geometric_normal.data[i] = wp::vec3({_background_cpp("geometric_normal")});
+            gb.albedo.data[i] = wp::vec3({_background_cpp("albedo")});
+            gb.specular.data[i] = wp::vec3({_background_cpp("specular")});
+            gb.emission.data[i] = wp::vec3({_background_cpp("emission")});
+            auto& optics = gb.optics.data[i];
+            optics.reflectivity = {_background_cpp("optics")};
+            optics.ior = {_background_cpp("optics")};
+            optics.opacity = {_background_cpp("optics")};
+            optics.roughness = {_background_cpp("optics")};
+            gb.material_id.data[i] = {int(BACKGROUND["material_id"])};
+            continue;
+        }}
+        const int mid = scene.triangle_material.data[tri];
+        const auto& m = scene.materials.data[mid];
+        if (m.normal_tex >= 0) {{
+            ++left;
+            continue;
+        }}
+        wp::vec3 albedo, specular, emission;
+        float roughness, metallic, opacity;
+        wh_material(scene, m, 3 * tri, bu[j], bv[j], wp::vec2(tu[j], tv[j]), wp::vec4(f0[j], f1[j], f2[j], f3[j]),
+                    albedo, specular, emission, roughness, metallic, opacity);
+        const wp::vec3 nn(sx[j], sy[j], sz[j]);
+        gb.position.data[i] = wp::vec3(qx[j], qy[j], qz[j]);
+        gb.normal.data[i] = away[j] ? wp::neg(nn) : nn;
+        gb.geometric_normal.data[i] = wp::vec3(gx[j], gy[j], gz[j]);
+        gb.albedo.data[i] = albedo;
+        gb.specular.data[i] = specular;
+        gb.emission.data[i] = emission;
+        const wp::vec3 c = specular;
+        auto& optics = gb.optics.data[i];
+        optics.reflectivity = {LUMA_709_CPP};
+        optics.ior = m.ior;
+        optics.opacity = opacity;
+        optics.roughness = roughness;
+        gb.material_id.data[i] = mid;
+    }}
 }}
+return left;
 """
 )
 
 
-@wp.func_native(_FOOTPRINT_SPAN_CPP)
-def _footprint_span(
-    points: wp.array(dtype=wp.vec3),
-    indices: wp.array(dtype=wp.int32),
-    corner_uvs: wp.array(dtype=wp.vec2),
-    cam: CameraGPU,
-    triangle_id: wp.array(dtype=wp.int32),
-    footprints: wp.array(dtype=wp.vec4),
-    ddx: wp.vec3,
-    ddy: wp.vec3,
-    y: int,
-    x0: int,
-    x1: int,
-):
-    """The uv footprints of pixels ``x0 <= x < x1`` of row ``y`` (``_FOOTPRINT_SPAN_CPP``):
-    the same bits as ``pixel_footprint`` pixel by pixel, for every hit pixel."""
+@wp.func_native(_SURFACE_SPAN_CPP)
+def _surface_span(
+    scene: SceneGPU, cam: CameraGPU, gb: GBufferRows, ddx: wp.vec3, ddy: wp.vec3, y: int, x0: int, x1: int
+) -> int:
+    """Every channel but the hit record of pixels ``x0 <= x < x1`` of row ``y``
+    (``_SURFACE_SPAN_CPP``): pixel by pixel the same bits as ``_write_surface``, the
+    background's values (``gbuffer.BACKGROUND``) where no surface is hit; ``ddx``,
+    ``ddy``: the camera ray's steps (``hit_record.sample_steps``).  Returns how many
+    hit pixels it left for the scalar path (their material has a normal map)."""
     ...
 
 
 @wp.kernel
-def surface_kernel(
-    scene: SceneGPU,
-    cam: CameraGPU,
-    gb: GBufferRows,
-    footprints: wp.array(dtype=wp.vec4),
-    row0: int,
-    row_step: int,
-    cols: int,
-):
-    """Per pixel: evaluate the surface named by the hit record (whichever primary path
-    wrote it) into the remaining G-buffer channels (the background's values where the
-    pixel sees no surface); ``footprints`` (flat, as ``gb``) is the pass's scratch for the
-    pixels' uv footprints, filled a row at a time in a native loop."""
+def surface_kernel(scene: SceneGPU, cam: CameraGPU, gb: GBufferRows, row0: int, row_step: int, cols: int):
+    """Per row (a launch item's columns): the surface named by each pixel's hit record
+    (whichever primary path wrote it) into the remaining G-buffer channels (the
+    background's values where the pixel sees no surface), in a native row loop
+    (``_surface_span``); the pixels it leaves (normal-mapped materials) one at a time."""
     r, c = wp.tid()
     y = row0 + r * row_step
     first = c * cols
     stop = wp.min(first + cols, cam.width)
     if first < stop:
         steps = sample_steps(cam)
-        _footprint_span(
-            scene.points,
-            scene.indices,
-            scene.corner_uvs,
-            cam,
-            gb.triangle_id,
-            footprints,
-            steps[0],
-            steps[1],
-            y,
-            first,
-            stop,
-        )
-    for x in range(first, stop):
-        i = y * cam.width + x
-        tri = gb.triangle_id[i]
-        if tri >= 0:
-            # (a material without textures never reads its footprint)
-            _write_surface_over(gb, i, scene, tri, gb.barycentric[i], pixel_ray(cam, x, y), footprints[i])
-        else:
-            _write_background_surface(gb, i)
+        if _surface_span(scene, cam, gb, steps[0], steps[1], y, first, stop) > 0:
+            for x in range(first, stop):
+                i = y * cam.width + x
+                tri = gb.triangle_id[i]
+                if tri >= 0:
+                    if scene.materials[scene.triangle_material[tri]].normal_tex >= 0:
+                        _write_surface(gb, i, scene, cam, tri, gb.barycentric[i], pixel_ray(cam, x, y))
 
 
 @wp.kernel

@@ -53,7 +53,8 @@ from __future__ import annotations
 
 import warp as wp
 
-from ...core.scene_gpu import FLAG_CUTOUT, FLAG_SPECULAR_WORKFLOW, FLAG_VERTEX_COLOR, SceneGPU, TextureGPU
+from ...core.native_rows import LAMBDA_HEADER_CPP
+from ...core.scene_gpu import FLAG_CUTOUT, FLAG_SPECULAR_WORKFLOW, FLAG_VERTEX_COLOR, MaterialGPU, SceneGPU, TextureGPU
 from ..model import Wrap
 
 WRAP_REPEAT = wp.constant(int(Wrap.REPEAT))
@@ -89,198 +90,312 @@ class SurfaceHit:
     flags: int
 
 
-# Bilinear filtering of one mip level, in native code: Warp's array indexing
-# (negative-index folding and a stride multiply per access) made the taps ~1.6x
-# slower.  Repeat wrapping in both axes (nearly every texture) has its own short
-# function.  Coordinates are folded first so taps stay near the image (repeat ->
-# [0, 1), mirror -> [0, 2), clamp/black -> clamped just past the edges), so the tap
-# indices need no integer division: repeat i in [-1, n], mirror i in [-1, 2n].  A
-# non-finite uv (NaN, or an infinity folded to NaN) reads black, never out of bounds.
-_BILINEAR_TAPS = """
-const wp::vec4* row0 = texels.data + offset + r0 * width;
-const wp::vec4* row1 = texels.data + offset + r1 * width;
-return (row0[c0] * wx0 + row0[c1] * wx1) * wy0 + (row1[c0] * wx0 + row1[c1] * wx1) * wy1;
+# The texture lookups, the surface's frame and its material as native lambdas, the one
+# implementation of each: the scalar functions below wrap them (``@wp.func_native``) and
+# the surface pass's row loop (``primary/kernels.py``) evaluates them over a chunk of
+# pixels.  Bilinear taps in native code: Warp's array indexing (negative-index folding
+# and a stride multiply per access) made them ~1.6x slower.  Repeat wrapping in both axes
+# (nearly every texture) has its own short lambda.  Coordinates are folded first so taps
+# stay near the image (repeat -> [0, 1), mirror -> [0, 2), clamp/black -> clamped just
+# past the edges), so the tap indices need no integer division: repeat i in [-1, n],
+# mirror i in [-1, 2n].  A non-finite uv (NaN, or an infinity folded to NaN) reads black,
+# never out of bounds.  Every sum and product is a ``wp::`` call, as Warp writes the
+# Python's operations, so the bits are those of the Python they replaced.
+_BILINEAR_TAPS_CPP = """
+    const wp::vec4* row0 = texels + offset + r0 * width;
+    const wp::vec4* row1 = texels + offset + r1 * width;
+    return (row0[c0] * wx0 + row0[c1] * wx1) * wy0 + (row1[c0] * wx0 + row1[c1] * wx1) * wy1;
 """
 
-
-@wp.func_native(
-    """
-const float vf = 1.0f - v;
-const float x = (u - wp::floor(u)) * (float)width - 0.5f;
-const float y = (vf - wp::floor(vf)) * (float)height - 0.5f;
-if (!(x == x && y == y)) return wp::vec4(0.0f);
-const float x0f = wp::floor(x);
-const float y0f = wp::floor(y);
-const float wx1 = x - x0f;
-const float wy1 = y - y0f;
-const float wx0 = 1.0f - wx1;
-const float wy0 = 1.0f - wy1;
-int c0 = (int)x0f;
-int r0 = (int)y0f;
-int c1 = c0 + 1;
-int r1 = r0 + 1;
-c0 = c0 < 0 ? c0 + width : c0;
-r0 = r0 < 0 ? r0 + height : r0;
-c1 = c1 >= width ? c1 - width : c1;
-r1 = r1 >= height ? r1 - height : r1;
+#: C++ lambdas: texture sampling (see the module docstring), ``t`` a ``TextureGPU``.
+TEXTURE_CPP = (
+    LAMBDA_HEADER_CPP
+    + """
+auto wh_bilinear_repeat = [&](const wp::vec4* texels, int offset, int width, int height, float u,
+                              float v) WH_INLINE -> wp::vec4 {
+    const float vf = 1.0f - v;
+    const float x = (u - wp::floor(u)) * (float)width - 0.5f;
+    const float y = (vf - wp::floor(vf)) * (float)height - 0.5f;
+    if (!(x == x && y == y)) return wp::vec4(0.0f);
+    const float x0f = wp::floor(x);
+    const float y0f = wp::floor(y);
+    const float wx1 = x - x0f;
+    const float wy1 = y - y0f;
+    const float wx0 = 1.0f - wx1;
+    const float wy0 = 1.0f - wy1;
+    int c0 = (int)x0f;
+    int r0 = (int)y0f;
+    int c1 = c0 + 1;
+    int r1 = r0 + 1;
+    c0 = c0 < 0 ? c0 + width : c0;
+    r0 = r0 < 0 ? r0 + height : r0;
+    c1 = c1 >= width ? c1 - width : c1;
+    r1 = r1 >= height ? r1 - height : r1;
 """
-    + _BILINEAR_TAPS
-)
-def _bilinear_repeat(
-    texels: wp.array(dtype=wp.vec4), offset: int, width: int, height: int, u: float, v: float
-) -> wp.vec4:
-    """Bilinear lookup between texel centres of the ``width`` x ``height`` image at
-    ``texels[offset:]`` (row 0 at the top) at USD (u, v), repeating in both axes."""
-    ...
-
-
-@wp.func_native(
-    f"""
-auto fold = [](float a, int mode) -> float {{
-    if (mode == {int(Wrap.REPEAT)}) return a - wp::floor(a);
-    if (mode == {int(Wrap.MIRROR)}) return a - 2.0f * wp::floor(0.5f * a);
-    return wp::clamp(a, -1.0f, 2.0f);
+    + _BILINEAR_TAPS_CPP
+    + f"""}};
+auto wh_bilinear_wrapped = [&](const wp::vec4* texels, int offset, int width, int height, int wrap_s, int wrap_t,
+                               float u, float v) WH_INLINE -> wp::vec4 {{
+    auto fold = [](float a, int mode) -> float {{
+        if (mode == {int(Wrap.REPEAT)}) return a - wp::floor(a);
+        if (mode == {int(Wrap.MIRROR)}) return a - 2.0f * wp::floor(0.5f * a);
+        return wp::clamp(a, -1.0f, 2.0f);
+    }};
+    auto wrap = [](int i, int n, int mode) -> int {{
+        if (mode == {int(Wrap.REPEAT)}) return i < 0 ? i + n : (i >= n ? i - n : i);
+        if (mode == {int(Wrap.MIRROR)}) {{
+            int m = i < 0 ? -1 - i : i;
+            if (m >= 2 * n) m -= 2 * n;
+            return m >= n ? 2 * n - 1 - m : m;
+        }}
+        return i < 0 ? 0 : (i >= n ? n - 1 : i);
+    }};
+    auto weight = [](float w, int i, int n, int mode) -> float {{
+        return (mode == {int(Wrap.BLACK)} && (i < 0 || i >= n)) ? 0.0f : w;
+    }};
+    const float x = fold(u, wrap_s) * (float)width - 0.5f;
+    const float y = fold(1.0f - v, wrap_t) * (float)height - 0.5f;
+    if (!(u == u && v == v && x == x && y == y)) return wp::vec4(0.0f);
+    const float x0f = wp::floor(x);
+    const float y0f = wp::floor(y);
+    const float fx = x - x0f;
+    const float fy = y - y0f;
+    const int x0 = (int)x0f;
+    const int y0 = (int)y0f;
+    const int c0 = wrap(x0, width, wrap_s);
+    const int c1 = wrap(x0 + 1, width, wrap_s);
+    const int r0 = wrap(y0, height, wrap_t);
+    const int r1 = wrap(y0 + 1, height, wrap_t);
+    const float wx0 = weight(1.0f - fx, x0, width, wrap_s);
+    const float wx1 = weight(fx, x0 + 1, width, wrap_s);
+    const float wy0 = weight(1.0f - fy, y0, height, wrap_t);
+    const float wy1 = weight(fy, y0 + 1, height, wrap_t);
+"""
+    + _BILINEAR_TAPS_CPP
+    + f"""}};
+// Bilinear in the width x height level at offset of binding t, its wrap modes (no scale or bias).
+auto wh_bilinear = [&](const wp::vec4* texels, const auto& t, int offset, int width, int height,
+                       const wp::vec2& uv) WH_INLINE -> wp::vec4 {{
+    if (t.wrap_s == {int(Wrap.REPEAT)} && t.wrap_t == {int(Wrap.REPEAT)})
+        return wh_bilinear_repeat(texels, offset, width, height, uv[0], uv[1]);
+    return wh_bilinear_wrapped(texels, offset, width, height, t.wrap_s, t.wrap_t, uv[0], uv[1]);
 }};
-auto wrap = [](int i, int n, int mode) -> int {{
-    if (mode == {int(Wrap.REPEAT)}) return i < 0 ? i + n : (i >= n ? i - n : i);
-    if (mode == {int(Wrap.MIRROR)}) {{
-        int m = i < 0 ? -1 - i : i;
-        if (m >= 2 * n) m -= 2 * n;
-        return m >= n ? 2 * n - 1 - m : m;
+// The mesh uv through binding t's uv transform (UsdTransform2d).
+auto wh_texture_uv = [&](const auto& t, const wp::vec2& uv) WH_INLINE -> wp::vec2 {{
+    const wp::vec3 p(uv[0], uv[1], 1.0f);
+    return wp::vec2(wp::dot(t.uv_u, p), wp::dot(t.uv_v, p));
+}};
+// log2 of a positive normal float to within 0.005 (exponent plus a quadratic in the
+// mantissa): plenty for picking a mip level, and no libm call.
+auto wh_log2_approx = [&](float x) WH_INLINE -> float {{
+    union {{ float f; unsigned int u; }} c;
+    c.f = x;
+    float e = (float)((int)((c.u >> 23) & 255u) - 127);
+    c.u = (c.u & 0x007FFFFFu) | 0x3F800000u;
+    return e + (-0.34484843f * c.f + 2.02466578f) * c.f - 1.67487759f;
+}};
+// OpenGL's isotropic level of detail of binding t for the mesh-uv footprint fp:
+// -1 (level 0) where magnified.
+auto wh_lod = [&](const auto& t, const wp::vec4& fp) WH_INLINE -> float {{
+    const float ax = wp::mul(wp::add(wp::mul(t.uv_u[0], fp[0]), wp::mul(t.uv_u[1], fp[1])), (float)t.width);
+    const float ay = wp::mul(wp::add(wp::mul(t.uv_v[0], fp[0]), wp::mul(t.uv_v[1], fp[1])), (float)t.height);
+    const float bx = wp::mul(wp::add(wp::mul(t.uv_u[0], fp[2]), wp::mul(t.uv_u[1], fp[3])), (float)t.width);
+    const float by = wp::mul(wp::add(wp::mul(t.uv_v[0], fp[2]), wp::mul(t.uv_v[1], fp[3])), (float)t.height);
+    const float rho2 = wp::max(wp::add(wp::mul(ax, ax), wp::mul(ay, ay)), wp::add(wp::mul(bx, bx), wp::mul(by, by)));
+    if (!(rho2 > 1.0f)) return -1.0f;
+    return wp::mul(0.5f, wh_log2_approx(wp::min(rho2, 1.0e30f)));
+}};
+// The filtered texel (before scale and bias) of binding t at level of detail lod.
+auto wh_trilinear = [&](const wp::vec4* texels, const auto& t, const wp::vec2& uv, float lod) WH_INLINE -> wp::vec4 {{
+    const float lod_c = wp::min(lod, (float)wp::sub(t.levels, 1));
+    if (!(lod_c > 0.0f)) return wh_bilinear(texels, t, t.offset, t.width, t.height, uv);
+    const int level = (int)lod_c;
+    const float frac = wp::sub(lod_c, (float)level);
+    wp::vec4 v = wh_bilinear(texels, t, t.level_offsets[level], wp::max(t.width >> level, 1),
+                             wp::max(t.height >> level, 1), uv);
+    if (frac > 0.0f) {{
+        const int up = level + 1;
+        const wp::vec4 coarse = wh_bilinear(texels, t, t.level_offsets[up], wp::max(t.width >> up, 1),
+                                            wp::max(t.height >> up, 1), uv);
+        v = wp::add(wp::mul(v, wp::sub(1.0f, frac)), wp::mul(coarse, frac));
     }}
-    return i < 0 ? 0 : (i >= n ? n - 1 : i);
+    return v;
 }};
-auto weight = [](float w, int i, int n, int mode) -> float {{
-    return (mode == {int(Wrap.BLACK)} && (i < 0 || i >= n)) ? 0.0f : w;
+// Binding tex of the scene at uv (before its transform) and level of detail lod, scale and bias applied.
+auto wh_sample_lod = [&](const auto& scene, int tex, const wp::vec2& uv, float lod) WH_INLINE -> wp::vec4 {{
+    const auto& t = scene.textures.data[tex];
+    return wp::add(wp::cw_mul(wh_trilinear(scene.texels.data, t, wh_texture_uv(t, uv), lod), t.scale), t.bias);
 }};
-const float x = fold(u, wrap_s) * (float)width - 0.5f;
-const float y = fold(1.0f - v, wrap_t) * (float)height - 0.5f;
-if (!(u == u && v == v && x == x && y == y)) return wp::vec4(0.0f);
-const float x0f = wp::floor(x);
-const float y0f = wp::floor(y);
-const float fx = x - x0f;
-const float fy = y - y0f;
-const int x0 = (int)x0f;
-const int y0 = (int)y0f;
-const int c0 = wrap(x0, width, wrap_s);
-const int c1 = wrap(x0 + 1, width, wrap_s);
-const int r0 = wrap(y0, height, wrap_t);
-const int r1 = wrap(y0 + 1, height, wrap_t);
-const float wx0 = weight(1.0f - fx, x0, width, wrap_s);
-const float wx1 = weight(fx, x0 + 1, width, wrap_s);
-const float wy0 = weight(1.0f - fy, y0, height, wrap_t);
-const float wy1 = weight(fy, y0 + 1, height, wrap_t);
+// The same at the level of detail of the footprint fp.
+auto wh_sample_grad = [&](const auto& scene, int tex, const wp::vec2& uv, const wp::vec4& fp) WH_INLINE -> wp::vec4 {{
+    const auto& t = scene.textures.data[tex];
+    return wp::add(wp::cw_mul(wh_trilinear(scene.texels.data, t, wh_texture_uv(t, uv), wh_lod(t, fp)), t.scale),
+                   t.bias);
+}};
 """
-    + _BILINEAR_TAPS
 )
-def _bilinear_wrapped(
-    texels: wp.array(dtype=wp.vec4),
-    offset: int,
-    width: int,
-    height: int,
-    wrap_s: int,
-    wrap_t: int,
-    u: float,
-    v: float,
-) -> wp.vec4:
-    """``_bilinear_repeat`` for any wrap modes ``wrap_s``, ``wrap_t`` (``model.Wrap``:
-    repeat, clamp to the edge texels, mirrored repeat, black: taps outside weigh 0)."""
-    ...
 
 
-@wp.func(inline=True)
-def _bilinear(scene: SceneGPU, t: TextureGPU, offset: int, width: int, height: int, uv: wp.vec2) -> wp.vec4:
-    """Bilinear lookup in the ``width`` x ``height`` level at ``offset`` of binding
-    ``t`` (no scale or bias)."""
-    if t.wrap_s == WRAP_REPEAT and t.wrap_t == WRAP_REPEAT:
-        return _bilinear_repeat(scene.texels, offset, width, height, uv[0], uv[1])
-    return _bilinear_wrapped(scene.texels, offset, width, height, t.wrap_s, t.wrap_t, uv[0], uv[1])
-
-
-@wp.func(inline=True)
-def _texture_uv(t: TextureGPU, uv: wp.vec2) -> wp.vec2:
-    """The mesh ``uv`` through binding ``t``'s uv transform (UsdTransform2d)."""
-    p = wp.vec3(uv[0], uv[1], 1.0)
-    return wp.vec2(wp.dot(t.uv_u, p), wp.dot(t.uv_v, p))
-
-
-@wp.func(inline=True)
+@wp.func_native(TEXTURE_CPP + "return wh_sample_lod(scene, tex, uv, -1.0f);")
 def sample_texture(scene: SceneGPU, tex: int, uv: wp.vec2) -> wp.vec4:
     """Bilinearly sample texture binding ``tex`` at USD ``uv`` (v up, before the
     binding's uv transform) in mip level 0, with its wrap modes, then apply its scale
     and bias."""
-    t = scene.textures[tex]
-    return wp.cw_mul(_bilinear(scene, t, t.offset, t.width, t.height, _texture_uv(t, uv)), t.scale) + t.bias
-
-
-@wp.func_native(
-    """union { float f; unsigned int u; } c; c.f = x;
-float e = (float)((int)((c.u >> 23) & 255u) - 127);
-c.u = (c.u & 0x007FFFFFu) | 0x3F800000u;
-return e + (-0.34484843f * c.f + 2.02466578f) * c.f - 1.67487759f;"""
-)
-def _log2_approx(x: float) -> float:
-    """log2 of a positive normal float to within 0.005 (exponent plus a quadratic in
-    the mantissa): plenty for picking a mip level, and no libm call."""
     ...
 
 
-@wp.func(inline=True)
-def _trilinear(scene: SceneGPU, t: TextureGPU, uv: wp.vec2, lod: float) -> wp.vec4:
-    """Filtered texel (before scale and bias) of binding ``t`` at ``lod``: see
-    ``sample_texture_lod``."""
-    lod_c = wp.min(lod, float(t.levels - 1))
-    if not (lod_c > 0.0):
-        return _bilinear(scene, t, t.offset, t.width, t.height, uv)
-    level = int(lod_c)
-    frac = lod_c - float(level)
-    v = _bilinear(scene, t, t.level_offsets[level], wp.max(t.width >> level, 1), wp.max(t.height >> level, 1), uv)
-    if frac > 0.0:
-        up = level + 1
-        coarse = _bilinear(scene, t, t.level_offsets[up], wp.max(t.width >> up, 1), wp.max(t.height >> up, 1), uv)
-        v = v * (1.0 - frac) + coarse * frac
-    return v
-
-
-@wp.func(inline=True)
+@wp.func_native(TEXTURE_CPP + "return wh_sample_lod(scene, tex, uv, lod);")
 def sample_texture_lod(scene: SceneGPU, tex: int, uv: wp.vec2, lod: float) -> wp.vec4:
     """Trilinearly sample texture binding ``tex`` at USD ``uv`` and level of detail
     ``lod`` (log2 of the footprint in level-0 texels, clamped to the chain): bilinear
     in levels floor(lod) and floor(lod) + 1, blended by the fraction; lod <= 0 is the
     plain bilinear level-0 lookup of ``sample_texture``.  Scale and bias applied."""
-    t = scene.textures[tex]
-    return wp.cw_mul(_trilinear(scene, t, _texture_uv(t, uv), lod), t.scale) + t.bias
+    ...
 
 
-@wp.func(inline=True)
-def _lod(t: TextureGPU, footprint: wp.vec4) -> float:
-    # The footprint through the uv transform's linear part, then in level-0 texels.
-    ax = (t.uv_u[0] * footprint[0] + t.uv_u[1] * footprint[1]) * float(t.width)
-    ay = (t.uv_v[0] * footprint[0] + t.uv_v[1] * footprint[1]) * float(t.height)
-    bx = (t.uv_u[0] * footprint[2] + t.uv_u[1] * footprint[3]) * float(t.width)
-    by = (t.uv_v[0] * footprint[2] + t.uv_v[1] * footprint[3]) * float(t.height)
-    rho2 = wp.max(ax * ax + ay * ay, bx * bx + by * by)
-    if not (rho2 > 1.0):
-        return -1.0
-    return 0.5 * _log2_approx(wp.min(rho2, 1.0e30))
-
-
-@wp.func(inline=True)
+@wp.func_native(TEXTURE_CPP + "return wh_lod(scene.textures.data[tex], footprint);")
 def texture_lod(scene: SceneGPU, tex: int, footprint: wp.vec4) -> float:
     """Isotropic level of detail (OpenGL's) of binding ``tex`` for the uv footprint
     (du/dx, dv/dx, du/dy, dv/dy) of one pixel: log2 of the longer of the two pixel
     axes measured in level-0 texels (to within 0.005); -1 when the texture is
     magnified (and for a zero footprint), which selects level 0.  The footprint is in
     mesh uv, before the binding's uv transform."""
-    return _lod(scene.textures[tex], footprint)
+    ...
 
 
-@wp.func(inline=True)
+@wp.func_native(TEXTURE_CPP + "return wh_sample_grad(scene, tex, uv, footprint);")
 def sample_texture_grad(scene: SceneGPU, tex: int, uv: wp.vec2, footprint: wp.vec4) -> wp.vec4:
     """``sample_texture_lod`` at the level of detail ``texture_lod`` picks for the
     pixel footprint (du/dx, dv/dx, du/dy, dv/dy)."""
-    t = scene.textures[tex]
-    return wp.cw_mul(_trilinear(scene, t, _texture_uv(t, uv), _lod(t, footprint)), t.scale) + t.bias
+    ...
+
+
+@wp.func_native(TEXTURE_CPP + "return wh_texture_uv(t, uv);")
+def _texture_uv(t: TextureGPU, uv: wp.vec2) -> wp.vec2:
+    """The mesh ``uv`` through binding ``t``'s uv transform (UsdTransform2d)."""
+    ...
+
+
+#: C++ lambdas: texture sampling (``TEXTURE_CPP``), the surface's frame and its material
+#: (see ``surface_at_grad``).
+SURFACE_CPP = (
+    TEXTURE_CPP
+    + f"""
+// The frame at barycentrics (bu, bv) of the triangle p0, p1, p2 (corner normals n0..n2,
+// corner uvs t0..t2) seen along d: the position, the face normal turned against d and
+// whether d hits its front, the uv (u, v), the interpolated normal (unit; the face
+// normal where it vanishes; before any normal map) and whether it faced along d.
+// Branch-free, so a loop over pixels vectorises.
+auto wh_surface_frame = [&](const wp::vec3& p0, const wp::vec3& p1, const wp::vec3& p2, const wp::vec3& n0,
+                            const wp::vec3& n1, const wp::vec3& n2, const wp::vec2& t0, const wp::vec2& t1,
+                            const wp::vec2& t2, float bu, float bv, const wp::vec3& d, wp::vec3& position,
+                            wp::vec3& ng, bool& front, float& u, float& v, wp::vec3& n, bool& away) WH_INLINE {{
+    const float bw = wp::sub(wp::sub(1.0f, bu), bv);
+    position = wp::add(wp::add(wp::mul(p0, bu), wp::mul(p1, bv)), wp::mul(p2, bw));
+    const wp::vec3 c = wp::cross(wp::sub(p1, p0), wp::sub(p2, p0));
+    const float c_len = wp::length(c);
+    ng = wh_select(c_len > 0.0f, wp::div(c, c_len), wp::neg(wh_normalize(d)));
+    front = !(wp::dot(ng, d) > 0.0f);
+    ng = wh_select(front, ng, wp::neg(ng));
+    u = wp::add(wp::add(wp::mul(t0[0], bu), wp::mul(t1[0], bv)), wp::mul(t2[0], bw));
+    v = wp::add(wp::add(wp::mul(t0[1], bu), wp::mul(t1[1], bv)), wp::mul(t2[1], bw));
+    const wp::vec3 s = wp::add(wp::add(wp::mul(n0, bu), wp::mul(n1, bv)), wp::mul(n2, bw));
+    const float s_len = wp::length(s);
+    n = wh_select(s_len > 1.0e-12f, wp::div(s, s_len), ng);
+    away = wp::dot(n, d) > 0.0f;
+}};
+// Material m at the point of barycentrics (bu, bv) of the triangle whose first corner is k,
+// uv there, textures filtered over the footprint fp: the diffuse colour times
+// (1 - metallic), the specular F0, the emission, roughness, metallic and opacity.
+auto wh_material = [&](const auto& scene, const auto& m, int k, float bu, float bv, const wp::vec2& uv,
+                       const wp::vec4& fp, wp::vec3& albedo, wp::vec3& specular, wp::vec3& emission,
+                       float& roughness, float& metallic, float& opacity) WH_INLINE {{
+    auto channel = [](const wp::vec4& s, int c) WH_INLINE -> float {{ return s[wp::clamp(c, 0, 3)]; }};
+    wp::vec3 diffuse = m.diffuse;
+    if ((m.flags & {int(FLAG_VERTEX_COLOR)}) != 0) {{
+        const float bw = wp::sub(wp::sub(1.0f, bu), bv);
+        const wp::vec3* cc = scene.corner_colors.data;
+        diffuse = wp::add(wp::add(wp::mul(cc[k], bu), wp::mul(cc[k + 1], bv)), wp::mul(cc[k + 2], bw));
+    }}
+    if (m.diffuse_tex >= 0) {{
+        const wp::vec4 s = wh_sample_grad(scene, m.diffuse_tex, uv, fp);
+        diffuse = wp::vec3(s[0], s[1], s[2]);
+    }}
+    emission = m.emissive;
+    if (m.emissive_tex >= 0) {{
+        const wp::vec4 s = wh_sample_grad(scene, m.emissive_tex, uv, fp);
+        emission = wp::vec3(s[0], s[1], s[2]);
+    }}
+    float r = m.roughness;
+    if (m.roughness_tex >= 0) r = channel(wh_sample_grad(scene, m.roughness_tex, uv, fp), m.roughness_channel);
+    float metal = m.metallic;
+    if (m.metallic_tex >= 0) metal = channel(wh_sample_grad(scene, m.metallic_tex, uv, fp), m.metallic_channel);
+    float o = m.opacity;
+    if (m.opacity_tex >= 0) o = channel(wh_sample_grad(scene, m.opacity_tex, uv, fp), m.opacity_channel);
+    if ((m.flags & {int(FLAG_SPECULAR_WORKFLOW)}) != 0) {{
+        metal = 0.0f;
+        specular = m.specular;
+    }} else {{
+        metal = wp::clamp(metal, 0.0f, 1.0f);
+        const float f = wp::div(wp::sub(m.ior, 1.0f), wp::add(m.ior, 1.0f));
+        const float f0 = wp::mul(f, f);
+        specular = wp::add(wp::mul(wp::vec3(f0, f0, f0), wp::sub(1.0f, metal)), wp::mul(diffuse, metal));
+    }}
+    albedo = wp::mul(diffuse, wp::sub(1.0f, metal));
+    roughness = wp::clamp(r, 0.0f, 1.0f);
+    metallic = metal;
+    opacity = wp::clamp(o, 0.0f, 1.0f);
+}};
+"""
+)
+
+
+@wp.func_native(
+    SURFACE_CPP
+    + """
+wp::vec3 position, ng, n;
+bool front, away;
+float u, v;
+wh_surface_frame(p0, p1, p2, n0, n1, n2, t0, t1, t2, bu, bv, d, position, ng, front, u, v, n, away);
+return wp::mat44(position[0], position[1], position[2], front ? 1.0f : 0.0f, ng[0], ng[1], ng[2],
+                 away ? 1.0f : 0.0f, n[0], n[1], n[2], 0.0f, u, v, 0.0f, 0.0f);
+"""
+)
+def _surface_frame(
+    p0: wp.vec3,
+    p1: wp.vec3,
+    p2: wp.vec3,
+    n0: wp.vec3,
+    n1: wp.vec3,
+    n2: wp.vec3,
+    t0: wp.vec2,
+    t1: wp.vec2,
+    t2: wp.vec2,
+    bu: float,
+    bv: float,
+    d: wp.vec3,
+) -> wp.mat44:
+    """``wh_surface_frame`` as rows (position, front face 1/0), (face normal, faced
+    away 1/0), (interpolated normal, 0), (u, v, 0, 0)."""
+    ...
+
+
+@wp.func_native(
+    SURFACE_CPP
+    + """
+wp::vec3 albedo, specular, emission;
+float roughness, metallic, opacity;
+wh_material(scene, m, k, bu, bv, uv, footprint, albedo, specular, emission, roughness, metallic, opacity);
+return wp::mat44(albedo[0], albedo[1], albedo[2], roughness, specular[0], specular[1], specular[2], metallic,
+                 emission[0], emission[1], emission[2], opacity, 0.0f, 0.0f, 0.0f, 0.0f);
+"""
+)
+def _material_values(
+    scene: SceneGPU, m: MaterialGPU, k: int, bu: float, bv: float, uv: wp.vec2, footprint: wp.vec4
+) -> wp.mat44:
+    """``wh_material`` as rows (albedo, roughness), (specular, metallic), (emission,
+    opacity)."""
+    ...
 
 
 #: C++ statements: ray differentials (Igehy 1999) on the triangle ``p0, p1, p2`` with corner
@@ -451,83 +566,43 @@ def surface_at_grad(
     the material with its textures applied, each texture filtered over the pixel's uv
     ``footprint`` (du/dx, dv/dx, du/dy, dv/dy; see ``uv_footprint``)."""
     k = 3 * tri
-    i0 = scene.indices[k]
-    i1 = scene.indices[k + 1]
-    i2 = scene.indices[k + 2]
-    p0 = scene.points[i0]
-    p1 = scene.points[i1]
-    p2 = scene.points[i2]
-    bw = 1.0 - bu - bv
-
+    f = _surface_frame(
+        scene.points[scene.indices[k]],
+        scene.points[scene.indices[k + 1]],
+        scene.points[scene.indices[k + 2]],
+        scene.corner_normals[k],
+        scene.corner_normals[k + 1],
+        scene.corner_normals[k + 2],
+        scene.corner_uvs[k],
+        scene.corner_uvs[k + 1],
+        scene.corner_uvs[k + 2],
+        bu,
+        bv,
+        ray_dir,
+    )
     h = SurfaceHit()
-    h.position = p0 * bu + p1 * bv + p2 * bw
-
-    ng = wp.cross(p1 - p0, p2 - p0)
-    ng_len = wp.length(ng)
-    if ng_len > 0.0:
-        ng = ng / ng_len
-    else:
-        ng = -wp.normalize(ray_dir)
-    h.front_face = 1
-    if wp.dot(ng, ray_dir) > 0.0:
-        ng = -ng
-        h.front_face = 0
-    h.geometric_normal = ng
-
-    uv = interpolate_uv(scene, tri, bu, bv)
+    h.position = wp.vec3(f[0, 0], f[0, 1], f[0, 2])
+    h.front_face = int(f[0, 3])
+    h.geometric_normal = wp.vec3(f[1, 0], f[1, 1], f[1, 2])
+    uv = wp.vec2(f[3, 0], f[3, 1])
     h.uv = uv
-
     mid = scene.triangle_material[tri]
     m = scene.materials[mid]
     h.material = mid
     h.flags = m.flags
-
-    n = scene.corner_normals[k] * bu + scene.corner_normals[k + 1] * bv + scene.corner_normals[k + 2] * bw
-    n_len = wp.length(n)
-    if n_len > 1.0e-12:
-        n = n / n_len
-    else:
-        n = ng
-    away = wp.dot(n, ray_dir) > 0.0
+    n = wp.vec3(f[2, 0], f[2, 1], f[2, 2])
     if m.normal_tex >= 0:
         n = perturb_normal(scene, m.normal_tex, tri, n, uv, footprint)
-    if away:
+    if f[1, 3] != 0.0:  # the interpolated normal faced away from the ray
         n = -n
     h.normal = n
-
-    diffuse = m.diffuse
-    if (m.flags & FLAG_VERTEX_COLOR) != 0:
-        diffuse = scene.corner_colors[k] * bu + scene.corner_colors[k + 1] * bv + scene.corner_colors[k + 2] * bw
-    if m.diffuse_tex >= 0:
-        d = sample_texture_grad(scene, m.diffuse_tex, uv, footprint)
-        diffuse = wp.vec3(d[0], d[1], d[2])
-    emission = m.emissive
-    if m.emissive_tex >= 0:
-        e = sample_texture_grad(scene, m.emissive_tex, uv, footprint)
-        emission = wp.vec3(e[0], e[1], e[2])
-    roughness = m.roughness
-    if m.roughness_tex >= 0:
-        roughness = _channel(sample_texture_grad(scene, m.roughness_tex, uv, footprint), m.roughness_channel)
-    metallic = m.metallic
-    if m.metallic_tex >= 0:
-        metallic = _channel(sample_texture_grad(scene, m.metallic_tex, uv, footprint), m.metallic_channel)
-    opacity = m.opacity
-    if m.opacity_tex >= 0:
-        opacity = _channel(sample_texture_grad(scene, m.opacity_tex, uv, footprint), m.opacity_channel)
-
-    if (m.flags & FLAG_SPECULAR_WORKFLOW) != 0:
-        metallic = 0.0
-        h.specular = m.specular
-    else:
-        metallic = wp.clamp(metallic, 0.0, 1.0)
-        f = (m.ior - 1.0) / (m.ior + 1.0)
-        f0 = f * f
-        h.specular = wp.vec3(f0, f0, f0) * (1.0 - metallic) + diffuse * metallic
-    h.albedo = diffuse * (1.0 - metallic)
-    h.emission = emission
-    h.roughness = wp.clamp(roughness, 0.0, 1.0)
-    h.metallic = metallic
-    h.opacity = wp.clamp(opacity, 0.0, 1.0)
+    values = _material_values(scene, m, k, bu, bv, uv, footprint)
+    h.albedo = wp.vec3(values[0, 0], values[0, 1], values[0, 2])
+    h.roughness = values[0, 3]
+    h.specular = wp.vec3(values[1, 0], values[1, 1], values[1, 2])
+    h.metallic = values[1, 3]
+    h.emission = wp.vec3(values[2, 0], values[2, 1], values[2, 2])
+    h.opacity = values[2, 3]
     h.ior = m.ior
     return h
 

@@ -144,7 +144,8 @@ def by_symbol(symbols: list[JitSymbol], addresses: list[int]) -> tuple[collectio
 def _python_line(cpp: list[str], line: int) -> str:
     """The Python source of generated line ``line`` (1-based): ``file.py:N  text`` from the
     comment Warp's code generator wrote above it, or, inside a ``wp.func_native`` body
-    (no such comments), ``file.py:N  native NAME``, N being the function's own line."""
+    (no such comments), ``file.py:N  native NAME: C++ text`` (N the function's own line,
+    the text that of the generated line itself, so a native loop's lines stay apart)."""
     text, number = "?", None
     for k in range(line - 1, -1, -1):
         m = re.search(r"//(.*)<L (\d+)>\s*$", cpp[k])
@@ -156,7 +157,8 @@ def _python_line(cpp: list[str], line: int) -> str:
             if number is not None:
                 return f"{source}:{number}  {text}"
             name = re.search(r"(\w+)\(", " ".join(cpp[k + 1 : k + 3]))
-            return f"{source}:{header.group(2)}  native {name.group(1) if name else '?'}"
+            native = name.group(1) if name else "?"
+            return f"{source}:{header.group(2)}  native {native}: {cpp[line - 1].strip()[:90]}"
     return text
 
 

@@ -46,9 +46,10 @@ from ..core.constants import LUMA_709_CPP, luma709
 from ..core.gbuffer import BACKGROUND, GBufferRows, Optics
 from ..core.native_rows import CHUNK_CPP
 from ..core.pixel_list import listed_pixel
-from ..core.scene_gpu import SceneGPU
+from ..core.scene_gpu import FLAG_VERTEX_COLOR, SceneGPU
 from ..scene.device.surface import SURFACE_CPP, UV_FOOTPRINT_CPP, is_cut_away, samples_textures, surface_at_grad
 from ..scene.device.wide_bvh import WideBVHGPU, WideHit, wide_closest
+from ..scene.model import Wrap
 from .clipping import ProjectedPoints, in_guard_band, project, raster_clipped, to_camera
 from .coverage import EMPTY_KEY, RasterTarget, raster_triangle
 from .hit_record import EXACT_HIT_CPP, exact_hit, pixel_footprint, sample_steps
@@ -435,11 +436,12 @@ def _background_cpp(channel: str) -> str:
 # triangle corners, corner uvs and normals and its barycentrics (none for the
 # background), (2) the camera ray, the uv footprint (``UV_FOOTPRINT_CPP``) and the
 # surface's frame (``wh_surface_frame``) as plain arithmetic over the chunk (the compiler
-# vectorises it across pixels), (3) pixel by pixel the material (``wh_material``, its
-# textures filtered over the footprint) and the stores of every channel but the hit
-# record: the background's values where no surface is hit.  A pixel whose material has
-# a normal map is left for the scalar path (``surface_at_grad``); the loop returns how
-# many it left.  The same lambdas as ``surface_at_grad``, so the same bits.
+# vectorises it across pixels), (3) the material (``wh_material``, its textures filtered
+# over the footprint: over the chunk, its taps too, where every pixel shows one material
+# whose only texture is its diffuse colour, else pixel by pixel) and the stores of every
+# channel but the hit record: the background's values where no surface is hit.  A pixel
+# whose material has a normal map is left for the scalar path (``surface_at_grad``); the
+# loop returns how many it left.  The same lambdas as ``surface_at_grad``, so the same bits.
 _SURFACE_SPAN_CPP = (
     CHUNK_CPP
     + SURFACE_CPP
@@ -458,10 +460,46 @@ float u0[CHUNK], v0[CHUNK], u1[CHUNK], v1[CHUNK], u2[CHUNK], v2[CHUNK];
 float mx[CHUNK], my[CHUNK], mz[CHUNK], nx1[CHUNK], ny1[CHUNK], nz1[CHUNK], ox[CHUNK], oy[CHUNK], oz[CHUNK];
 float bu[CHUNK], bv[CHUNK], f0[CHUNK], f1[CHUNK], f2[CHUNK], f3[CHUNK];
 float qx[CHUNK], qy[CHUNK], qz[CHUNK], gx[CHUNK], gy[CHUNK], gz[CHUNK], sx[CHUNK], sy[CHUNK], sz[CHUNK];
-float tu[CHUNK], tv[CHUNK];
+float tu[CHUNK], tv[CHUNK], frac[CHUNK], dr[CHUNK], dg[CHUNK], db[CHUNK], hr[CHUNK], hg[CHUNK], hb[CHUNK];
+float rough[CHUNK], opaque[CHUNK];
+int mids[CHUNK], level[CHUNK];
 bool front[CHUNK], away[CHUNK];
 int left = 0;
-for (int xs = x0; xs < x1; xs += CHUNK) {{
+int xs = x0;
+// the stores of one pixel: the background's values, or lane j's surface
+auto store_background = [&](size_t i) WH_INLINE {{
+    gb.position.data[i] = wp::vec3({_background_cpp("position")});
+    gb.normal.data[i] = wp::vec3({_background_cpp("normal")});
+    gb.geometric_normal.data[i] = wp::vec3({_background_cpp("geometric_normal")});
+    gb.albedo.data[i] = wp::vec3({_background_cpp("albedo")});
+    gb.specular.data[i] = wp::vec3({_background_cpp("specular")});
+    gb.emission.data[i] = wp::vec3({_background_cpp("emission")});
+    auto& optics = gb.optics.data[i];
+    optics.reflectivity = {_background_cpp("optics")};
+    optics.ior = {_background_cpp("optics")};
+    optics.opacity = {_background_cpp("optics")};
+    optics.roughness = {_background_cpp("optics")};
+    gb.material_id.data[i] = {int(BACKGROUND["material_id"])};
+}};
+auto store_hit = [&](int j, int mid, const wp::vec3& albedo, const wp::vec3& specular, const wp::vec3& emission,
+                     float roughness, float opacity, float ior) WH_INLINE {{
+    const size_t i = row + (size_t)(xs + j);
+    const wp::vec3 nn(sx[j], sy[j], sz[j]);
+    gb.position.data[i] = wp::vec3(qx[j], qy[j], qz[j]);
+    gb.normal.data[i] = away[j] ? wp::neg(nn) : nn;
+    gb.geometric_normal.data[i] = wp::vec3(gx[j], gy[j], gz[j]);
+    gb.albedo.data[i] = albedo;
+    gb.specular.data[i] = specular;
+    gb.emission.data[i] = emission;
+    const wp::vec3 c = specular;
+    auto& optics = gb.optics.data[i];
+    optics.reflectivity = {LUMA_709_CPP};
+    optics.ior = ior;
+    optics.opacity = opacity;
+    optics.roughness = roughness;
+    gb.material_id.data[i] = mid;
+}};
+for (; xs < x1; xs += CHUNK) {{
     const int n = x1 - xs < CHUNK ? x1 - xs : CHUNK;
     for (int j = 0; j < n; ++j) {{
         wp::vec3 a(0.0f), b(0.0f), c(0.0f), na(0.0f), nb(0.0f), nc(0.0f);
@@ -504,48 +542,94 @@ for (int xs = x0; xs < x1; xs += CHUNK) {{
         sx[j] = nn[0]; sy[j] = nn[1]; sz[j] = nn[2];
         tu[j] = u; tv[j] = v;
     }}
+    // (3) the materials: a chunk whose pixels all show one material (a patch of one mesh,
+    // the common case) with at most its diffuse colour textured is evaluated over the
+    // chunk, the level of detail, the taps (where both axes repeat) and the finish
+    // vectorised; any other chunk pixel by pixel (``wh_material``).
+    int chunk_mid = -2;  // -2: no hit yet, -1: more than one material
     for (int j = 0; j < n; ++j) {{
-        const size_t i = row + (size_t)(xs + j);
         const int tri = tris[xs + j];
-        if (tri < 0) {{
-            gb.position.data[i] = wp::vec3({_background_cpp("position")});
-            gb.normal.data[i] = wp::vec3({_background_cpp("normal")});
-            gb.geometric_normal.data[i] = wp::vec3({_background_cpp("geometric_normal")});
-            gb.albedo.data[i] = wp::vec3({_background_cpp("albedo")});
-            gb.specular.data[i] = wp::vec3({_background_cpp("specular")});
-            gb.emission.data[i] = wp::vec3({_background_cpp("emission")});
-            auto& optics = gb.optics.data[i];
-            optics.reflectivity = {_background_cpp("optics")};
-            optics.ior = {_background_cpp("optics")};
-            optics.opacity = {_background_cpp("optics")};
-            optics.roughness = {_background_cpp("optics")};
-            gb.material_id.data[i] = {int(BACKGROUND["material_id"])};
+        mids[j] = tri >= 0 ? scene.triangle_material.data[tri] : -1;
+        if (mids[j] >= 0) chunk_mid = chunk_mid == -2 ? mids[j] : (chunk_mid == mids[j] ? chunk_mid : -1);
+    }}
+    bool shared = chunk_mid >= 0;
+    if (shared) {{
+        const auto& m = scene.materials.data[chunk_mid];
+        shared = m.normal_tex < 0 && (m.flags & {int(FLAG_VERTEX_COLOR)}) == 0 && m.emissive_tex < 0 &&
+                 m.roughness_tex < 0 && m.metallic_tex < 0 && m.opacity_tex < 0;
+    }}
+    if (shared) {{
+        const auto& m = scene.materials.data[chunk_mid];
+        if (m.diffuse_tex >= 0) {{
+            const auto& t = scene.textures.data[m.diffuse_tex];
+            for (int j = 0; j < n; ++j) {{
+                const wp::vec2 st = wh_texture_uv(t, wp::vec2(tu[j], tv[j]));
+                tu[j] = st[0]; tv[j] = st[1];
+                wh_mip_level(t, wh_lod(t, wp::vec4(f0[j], f1[j], f2[j], f3[j])), level[j], frac[j]);
+            }}
+            if (t.wrap_s == {int(Wrap.REPEAT)} && t.wrap_t == {int(Wrap.REPEAT)}) {{
+                // one channel at a time over the chunk (background lanes tap harmlessly)
+                const wp::vec4* texels = scene.texels.data;
+                #pragma clang loop vectorize(enable)
+                for (int j = 0; j < n; ++j) {{
+                    const int l = level[j];
+                    const int u = wp::min(l + 1, t.levels - 1);
+                    const int fine = l == 0 ? t.offset : t.level_offsets[l];
+                    const int coarse = t.level_offsets[u];
+                    const int fw = wp::max(t.width >> l, 1), fh = wp::max(t.height >> l, 1);
+                    const int cw = wp::max(t.width >> u, 1), ch = wp::max(t.height >> u, 1);
+                    auto channel = [&](int k) WH_INLINE -> float {{
+                        const float a = wh_bilinear_repeat_channel(texels, fine, fw, fh, tu[j], tv[j], k);
+                        const float b = wh_bilinear_repeat_channel(texels, coarse, cw, ch, tu[j], tv[j], k);
+                        return wp::add(wp::mul(wh_mip_blend(a, b, frac[j]), t.scale[k]), t.bias[k]);
+                    }};
+                    dr[j] = channel(0); dg[j] = channel(1); db[j] = channel(2);
+                }}
+            }} else {{
+                for (int j = 0; j < n; ++j) {{
+                    if (mids[j] < 0) continue;
+                    const wp::vec4 c = wp::add(wp::cw_mul(wh_trilinear_at(false, scene.texels.data, t,
+                                                                          wp::vec2(tu[j], tv[j]), level[j], frac[j]),
+                                                          t.scale), t.bias);
+                    dr[j] = c[0]; dg[j] = c[1]; db[j] = c[2];
+                }}
+            }}
+        }} else {{
+            for (int j = 0; j < n; ++j) {{
+                dr[j] = m.diffuse[0]; dg[j] = m.diffuse[1]; db[j] = m.diffuse[2];
+            }}
+        }}
+        for (int j = 0; j < n; ++j) {{
+            wp::vec3 albedo, specular;
+            float roughness, metallic, opacity;
+            wh_material_finish(m, wp::vec3(dr[j], dg[j], db[j]), m.roughness, m.metallic, m.opacity, albedo, specular,
+                               roughness, metallic, opacity);
+            dr[j] = albedo[0]; dg[j] = albedo[1]; db[j] = albedo[2];
+            hr[j] = specular[0]; hg[j] = specular[1]; hb[j] = specular[2];
+            rough[j] = roughness; opaque[j] = opacity;
+        }}
+        for (int j = 0; j < n; ++j) {{
+            if (mids[j] < 0) store_background(row + (size_t)(xs + j));
+            else store_hit(j, chunk_mid, wp::vec3(dr[j], dg[j], db[j]), wp::vec3(hr[j], hg[j], hb[j]), m.emissive,
+                           rough[j], opaque[j], m.ior);
+        }}
+        continue;
+    }}
+    for (int j = 0; j < n; ++j) {{
+        if (mids[j] < 0) {{
+            store_background(row + (size_t)(xs + j));
             continue;
         }}
-        const int mid = scene.triangle_material.data[tri];
-        const auto& m = scene.materials.data[mid];
+        const auto& m = scene.materials.data[mids[j]];
         if (m.normal_tex >= 0) {{
             ++left;
             continue;
         }}
         wp::vec3 albedo, specular, emission;
         float roughness, metallic, opacity;
-        wh_material(scene, m, 3 * tri, bu[j], bv[j], wp::vec2(tu[j], tv[j]), wp::vec4(f0[j], f1[j], f2[j], f3[j]),
-                    albedo, specular, emission, roughness, metallic, opacity);
-        const wp::vec3 nn(sx[j], sy[j], sz[j]);
-        gb.position.data[i] = wp::vec3(qx[j], qy[j], qz[j]);
-        gb.normal.data[i] = away[j] ? wp::neg(nn) : nn;
-        gb.geometric_normal.data[i] = wp::vec3(gx[j], gy[j], gz[j]);
-        gb.albedo.data[i] = albedo;
-        gb.specular.data[i] = specular;
-        gb.emission.data[i] = emission;
-        const wp::vec3 c = specular;
-        auto& optics = gb.optics.data[i];
-        optics.reflectivity = {LUMA_709_CPP};
-        optics.ior = m.ior;
-        optics.opacity = opacity;
-        optics.roughness = roughness;
-        gb.material_id.data[i] = mid;
+        wh_material(scene, m, 3 * tris[xs + j], bu[j], bv[j], wp::vec2(tu[j], tv[j]),
+                    wp::vec4(f0[j], f1[j], f2[j], f3[j]), albedo, specular, emission, roughness, metallic, opacity);
+        store_hit(j, mids[j], albedo, specular, emission, roughness, opacity, m.ior);
     }}
 }}
 return left;

@@ -111,12 +111,17 @@ _BILINEAR_TAPS_CPP = """
 TEXTURE_CPP = (
     LAMBDA_HEADER_CPP
     + """
-auto wh_bilinear_repeat = [&](const wp::vec4* texels, int offset, int width, int height, float u,
-                              float v) WH_INLINE -> wp::vec4 {
+// Channel k of the bilinear lookup in the width x height level at offset, repeating in both
+// axes.  Branch-free, one channel at a time, so a loop over pixels vectorises it (a
+// non-finite point taps texel 0 and reads black).
+auto wh_bilinear_repeat_channel = [&](const wp::vec4* texels, int offset, int width, int height, float u, float v,
+                                      int k) WH_INLINE -> float {
     const float vf = 1.0f - v;
-    const float x = (u - wp::floor(u)) * (float)width - 0.5f;
-    const float y = (vf - wp::floor(vf)) * (float)height - 0.5f;
-    if (!(x == x && y == y)) return wp::vec4(0.0f);
+    const float xf = (u - wp::floor(u)) * (float)width - 0.5f;
+    const float yf = (vf - wp::floor(vf)) * (float)height - 0.5f;
+    const bool finite = xf == xf && yf == yf;
+    const float x = finite ? xf : 0.0f;
+    const float y = finite ? yf : 0.0f;
     const float x0f = wp::floor(x);
     const float y0f = wp::floor(y);
     const float wx1 = x - x0f;
@@ -131,10 +136,22 @@ auto wh_bilinear_repeat = [&](const wp::vec4* texels, int offset, int width, int
     r0 = r0 < 0 ? r0 + height : r0;
     c1 = c1 >= width ? c1 - width : c1;
     r1 = r1 >= height ? r1 - height : r1;
+    const float* row0 = (const float*)(texels + offset + r0 * width);
+    const float* row1 = (const float*)(texels + offset + r1 * width);
+    const float top = wp::add(wp::mul(row0[4 * c0 + k], wx0), wp::mul(row0[4 * c1 + k], wx1));
+    const float bottom = wp::add(wp::mul(row1[4 * c0 + k], wx0), wp::mul(row1[4 * c1 + k], wx1));
+    return finite ? wp::add(wp::mul(top, wy0), wp::mul(bottom, wy1)) : 0.0f;
+};
+// All four channels.
+auto wh_bilinear_repeat = [&](const wp::vec4* texels, int offset, int width, int height, float u,
+                              float v) WH_INLINE -> wp::vec4 {
+    return wp::vec4(wh_bilinear_repeat_channel(texels, offset, width, height, u, v, 0),
+                    wh_bilinear_repeat_channel(texels, offset, width, height, u, v, 1),
+                    wh_bilinear_repeat_channel(texels, offset, width, height, u, v, 2),
+                    wh_bilinear_repeat_channel(texels, offset, width, height, u, v, 3));
+};
 """
-    + _BILINEAR_TAPS_CPP
-    + f"""}};
-auto wh_bilinear_wrapped = [&](const wp::vec4* texels, int offset, int width, int height, int wrap_s, int wrap_t,
+    + f"""auto wh_bilinear_wrapped = [&](const wp::vec4* texels, int offset, int width, int height, int wrap_s, int wrap_t,
                                float u, float v) WH_INLINE -> wp::vec4 {{
     auto fold = [](float a, int mode) -> float {{
         if (mode == {int(Wrap.REPEAT)}) return a - wp::floor(a);
@@ -205,21 +222,40 @@ auto wh_lod = [&](const auto& t, const wp::vec4& fp) WH_INLINE -> float {{
     if (!(rho2 > 1.0f)) return -1.0f;
     return wp::mul(0.5f, wh_log2_approx(wp::min(rho2, 1.0e30f)));
 }};
+// The mip level a level of detail picks, clamped to binding t's chain: floor(lod) and the
+// fraction toward the next level; level 0 and no fraction where lod <= 0 (magnified).
+auto wh_mip_level = [&](const auto& t, float lod, int& level, float& frac) WH_INLINE {{
+    const float lod_c = wp::min(lod, (float)wp::sub(t.levels, 1));
+    const bool minified = lod_c > 0.0f;
+    level = minified ? (int)lod_c : 0;
+    frac = minified ? wp::sub(lod_c, (float)level) : 0.0f;
+}};
+// One channel of a level's texel blended toward the next level's by frac (where frac > 0).
+auto wh_mip_blend = [&](float fine, float coarse, float frac) WH_INLINE -> float {{
+    const float blend = wp::add(wp::mul(fine, wp::sub(1.0f, frac)), wp::mul(coarse, frac));
+    return frac > 0.0f ? blend : fine;
+}};
+// The filtered texel (before scale and bias) of binding t: bilinear in the level, blended
+// toward the next one by frac where frac > 0 (with ``lanes`` the next level, or the last, is
+// read and the blend chosen without a branch).
+auto wh_trilinear_at = [&](const bool lanes, const wp::vec4* texels, const auto& t, const wp::vec2& uv, int level,
+                           float frac) WH_INLINE -> wp::vec4 {{
+    auto at = [&](int l) WH_INLINE -> wp::vec4 {{
+        return wh_bilinear(texels, t, l == 0 ? t.offset : t.level_offsets[l], wp::max(t.width >> l, 1),
+                           wp::max(t.height >> l, 1), uv);
+    }};
+    const wp::vec4 v = at(level);
+    if (!lanes && !(frac > 0.0f)) return v;
+    const wp::vec4 c = at(wp::min(level + 1, t.levels - 1));
+    return wp::vec4(wh_mip_blend(v[0], c[0], frac), wh_mip_blend(v[1], c[1], frac), wh_mip_blend(v[2], c[2], frac),
+                    wh_mip_blend(v[3], c[3], frac));
+}};
 // The filtered texel (before scale and bias) of binding t at level of detail lod.
 auto wh_trilinear = [&](const wp::vec4* texels, const auto& t, const wp::vec2& uv, float lod) WH_INLINE -> wp::vec4 {{
-    const float lod_c = wp::min(lod, (float)wp::sub(t.levels, 1));
-    if (!(lod_c > 0.0f)) return wh_bilinear(texels, t, t.offset, t.width, t.height, uv);
-    const int level = (int)lod_c;
-    const float frac = wp::sub(lod_c, (float)level);
-    wp::vec4 v = wh_bilinear(texels, t, t.level_offsets[level], wp::max(t.width >> level, 1),
-                             wp::max(t.height >> level, 1), uv);
-    if (frac > 0.0f) {{
-        const int up = level + 1;
-        const wp::vec4 coarse = wh_bilinear(texels, t, t.level_offsets[up], wp::max(t.width >> up, 1),
-                                            wp::max(t.height >> up, 1), uv);
-        v = wp::add(wp::mul(v, wp::sub(1.0f, frac)), wp::mul(coarse, frac));
-    }}
-    return v;
+    int level;
+    float frac;
+    wh_mip_level(t, lod, level, frac);
+    return wh_trilinear_at(false, texels, t, uv, level, frac);
 }};
 // Binding tex of the scene at uv (before its transform) and level of detail lod, scale and bias applied.
 auto wh_sample_lod = [&](const auto& scene, int tex, const wp::vec2& uv, float lod) WH_INLINE -> wp::vec4 {{
@@ -304,6 +340,24 @@ auto wh_surface_frame = [&](const wp::vec3& p0, const wp::vec3& p1, const wp::ve
     n = wh_select(s_len > 1.0e-12f, wp::div(s, s_len), ng);
     away = wp::dot(n, d) > 0.0f;
 }};
+// The diffuse colour times (1 - metallic), specular F0, roughness, metallic and opacity of
+// material m given its inputs' values (constants, vertex colours or textures).
+auto wh_material_finish = [&](const auto& m, const wp::vec3& diffuse, float r, float metal, float o,
+                              wp::vec3& albedo, wp::vec3& specular, float& roughness, float& metallic,
+                              float& opacity) WH_INLINE {{
+    // branch-free, so a loop over a chunk of one material vectorises
+    const bool given = (m.flags & {int(FLAG_SPECULAR_WORKFLOW)}) != 0;  // the specular workflow's own F0
+    const float f = wp::div(wp::sub(m.ior, 1.0f), wp::add(m.ior, 1.0f));
+    const float f0 = wp::mul(f, f);
+    const float mc = wp::clamp(metal, 0.0f, 1.0f);
+    specular = wh_select(given, m.specular,
+                         wp::add(wp::mul(wp::vec3(f0, f0, f0), wp::sub(1.0f, mc)), wp::mul(diffuse, mc)));
+    metal = given ? 0.0f : mc;
+    albedo = wp::mul(diffuse, wp::sub(1.0f, metal));
+    roughness = wp::clamp(r, 0.0f, 1.0f);
+    metallic = metal;
+    opacity = wp::clamp(o, 0.0f, 1.0f);
+}};
 // Material m at the point of barycentrics (bu, bv) of the triangle whose first corner is k,
 // uv there, textures filtered over the footprint fp: the diffuse colour times
 // (1 - metallic), the specular F0, the emission, roughness, metallic and opacity.
@@ -332,19 +386,7 @@ auto wh_material = [&](const auto& scene, const auto& m, int k, float bu, float 
     if (m.metallic_tex >= 0) metal = channel(wh_sample_grad(scene, m.metallic_tex, uv, fp), m.metallic_channel);
     float o = m.opacity;
     if (m.opacity_tex >= 0) o = channel(wh_sample_grad(scene, m.opacity_tex, uv, fp), m.opacity_channel);
-    if ((m.flags & {int(FLAG_SPECULAR_WORKFLOW)}) != 0) {{
-        metal = 0.0f;
-        specular = m.specular;
-    }} else {{
-        metal = wp::clamp(metal, 0.0f, 1.0f);
-        const float f = wp::div(wp::sub(m.ior, 1.0f), wp::add(m.ior, 1.0f));
-        const float f0 = wp::mul(f, f);
-        specular = wp::add(wp::mul(wp::vec3(f0, f0, f0), wp::sub(1.0f, metal)), wp::mul(diffuse, metal));
-    }}
-    albedo = wp::mul(diffuse, wp::sub(1.0f, metal));
-    roughness = wp::clamp(r, 0.0f, 1.0f);
-    metallic = metal;
-    opacity = wp::clamp(o, 0.0f, 1.0f);
+    wh_material_finish(m, diffuse, r, metal, o, albedo, specular, roughness, metallic, opacity);
 }};
 """
 )

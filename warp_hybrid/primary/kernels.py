@@ -588,8 +588,8 @@ for (; xs < x1; xs += CHUNK) {{
             }} else {{
                 for (int j = 0; j < n; ++j) {{
                     if (mids[j] < 0) continue;
-                    const wp::vec4 c = wp::add(wp::cw_mul(wh_trilinear_at(false, scene.texels.data, t,
-                                                                          wp::vec2(tu[j], tv[j]), level[j], frac[j]),
+                    const wp::vec4 c = wp::add(wp::cw_mul(wh_trilinear_at(scene.texels.data, t, wp::vec2(tu[j], tv[j]),
+                                                                          level[j], frac[j]),
                                                           t.scale), t.bias);
                     dr[j] = c[0]; dg[j] = c[1]; db[j] = c[2];
                 }}

@@ -99,8 +99,8 @@ class SurfaceHit:
 # stay near the image (repeat -> [0, 1), mirror -> [0, 2), clamp/black -> clamped just
 # past the edges), so the tap indices need no integer division: repeat i in [-1, n],
 # mirror i in [-1, 2n].  A non-finite uv (NaN, or an infinity folded to NaN) reads black,
-# never out of bounds.  Every sum and product is a ``wp::`` call, as Warp writes the
-# Python's operations, so the bits are those of the Python they replaced.
+# never out of bounds.  The operations are those of the Python they replaced, one at a
+# time (``wp::`` calls where Warp would write them), so the bits are too.
 _BILINEAR_TAPS_CPP = """
     const wp::vec4* row0 = texels + offset + r0 * width;
     const wp::vec4* row1 = texels + offset + r1 * width;
@@ -236,17 +236,16 @@ auto wh_mip_blend = [&](float fine, float coarse, float frac) WH_INLINE -> float
     return frac > 0.0f ? blend : fine;
 }};
 // The filtered texel (before scale and bias) of binding t: bilinear in the level, blended
-// toward the next one by frac where frac > 0 (with ``lanes`` the next level, or the last, is
-// read and the blend chosen without a branch).
-auto wh_trilinear_at = [&](const bool lanes, const wp::vec4* texels, const auto& t, const wp::vec2& uv, int level,
+// toward the next one by frac where frac > 0.
+auto wh_trilinear_at = [&](const wp::vec4* texels, const auto& t, const wp::vec2& uv, int level,
                            float frac) WH_INLINE -> wp::vec4 {{
     auto at = [&](int l) WH_INLINE -> wp::vec4 {{
         return wh_bilinear(texels, t, l == 0 ? t.offset : t.level_offsets[l], wp::max(t.width >> l, 1),
                            wp::max(t.height >> l, 1), uv);
     }};
     const wp::vec4 v = at(level);
-    if (!lanes && !(frac > 0.0f)) return v;
-    const wp::vec4 c = at(wp::min(level + 1, t.levels - 1));
+    if (!(frac > 0.0f)) return v;
+    const wp::vec4 c = at(level + 1);
     return wp::vec4(wh_mip_blend(v[0], c[0], frac), wh_mip_blend(v[1], c[1], frac), wh_mip_blend(v[2], c[2], frac),
                     wh_mip_blend(v[3], c[3], frac));
 }};
@@ -255,7 +254,7 @@ auto wh_trilinear = [&](const wp::vec4* texels, const auto& t, const wp::vec2& u
     int level;
     float frac;
     wh_mip_level(t, lod, level, frac);
-    return wh_trilinear_at(false, texels, t, uv, level, frac);
+    return wh_trilinear_at(texels, t, uv, level, frac);
 }};
 // Binding tex of the scene at uv (before its transform) and level of detail lod, scale and bias applied.
 auto wh_sample_lod = [&](const auto& scene, int tex, const wp::vec2& uv, float lod) WH_INLINE -> wp::vec4 {{

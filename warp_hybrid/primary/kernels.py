@@ -223,13 +223,6 @@ def _write_surface(gb: GBufferRows, i: int, scene: SceneGPU, cam: CameraGPU, tri
     footprint = wp.vec4(0.0, 0.0, 0.0, 0.0)
     if samples_textures(scene, tri):
         footprint = pixel_footprint(scene, cam, tri, d)
-    _write_surface_over(gb, i, scene, tri, b, d, footprint)
-
-
-@wp.func(inline=True)
-def _write_surface_over(gb: GBufferRows, i: int, scene: SceneGPU, tri: int, b: wp.vec2, d: wp.vec3, footprint: wp.vec4):
-    """``_write_surface`` given the pixel's uv ``footprint`` (read only where the material
-    samples a texture)."""
     h = surface_at_grad(scene, tri, b[0], b[1], d, footprint)
     gb.position[i] = h.position
     gb.normal[i] = h.normal
@@ -463,7 +456,7 @@ float qx[CHUNK], qy[CHUNK], qz[CHUNK], gx[CHUNK], gy[CHUNK], gz[CHUNK], sx[CHUNK
 float tu[CHUNK], tv[CHUNK], frac[CHUNK], dr[CHUNK], dg[CHUNK], db[CHUNK], hr[CHUNK], hg[CHUNK], hb[CHUNK];
 float rough[CHUNK], opaque[CHUNK];
 int mids[CHUNK], level[CHUNK];
-bool front[CHUNK], away[CHUNK];
+bool away[CHUNK];
 int left = 0;
 int xs = x0;
 // the stores of one pixel: the background's values, or lane j's surface
@@ -534,9 +527,10 @@ for (; xs < x1; xs += CHUNK) {{
         f0[j] = fp[0]; f1[j] = fp[1]; f2[j] = fp[2]; f3[j] = fp[3];
         wp::vec3 position, ng, nn;
         float u, v;
+        bool front;  // (the G-buffer keeps no side)
         wh_surface_frame(p0, p1, p2, wp::vec3(mx[j], my[j], mz[j]), wp::vec3(nx1[j], ny1[j], nz1[j]),
-                         wp::vec3(ox[j], oy[j], oz[j]), uv0, uv1, uv2, bu[j], bv[j], d, position, ng, front[j], u,
-                         v, nn, away[j]);
+                         wp::vec3(ox[j], oy[j], oz[j]), uv0, uv1, uv2, bu[j], bv[j], d, position, ng, front, u, v,
+                         nn, away[j]);
         qx[j] = position[0]; qy[j] = position[1]; qz[j] = position[2];
         gx[j] = ng[0]; gy[j] = ng[1]; gz[j] = ng[2];
         sx[j] = nn[0]; sy[j] = nn[1]; sz[j] = nn[2];

@@ -316,6 +316,10 @@ def _texture_uv(t: TextureGPU, uv: wp.vec2) -> wp.vec2:
 SURFACE_CPP = (
     TEXTURE_CPP
     + f"""
+// The value at barycentrics (bu, bv, bw) of the corner values a, b, c (floats or vectors).
+auto wh_corners = [&](const auto& a, const auto& b, const auto& c, float bu, float bv, float bw) WH_INLINE {{
+    return wp::add(wp::add(wp::mul(a, bu), wp::mul(b, bv)), wp::mul(c, bw));
+}};
 // The frame at barycentrics (bu, bv) of the triangle p0, p1, p2 (corner normals n0..n2,
 // corner uvs t0..t2) seen along d: the position, the face normal turned against d and
 // whether d hits its front, the uv (u, v), the interpolated normal (unit; the face
@@ -326,15 +330,15 @@ auto wh_surface_frame = [&](const wp::vec3& p0, const wp::vec3& p1, const wp::ve
                             const wp::vec2& t2, float bu, float bv, const wp::vec3& d, wp::vec3& position,
                             wp::vec3& ng, bool& front, float& u, float& v, wp::vec3& n, bool& away) WH_INLINE {{
     const float bw = wp::sub(wp::sub(1.0f, bu), bv);
-    position = wp::add(wp::add(wp::mul(p0, bu), wp::mul(p1, bv)), wp::mul(p2, bw));
+    position = wh_corners(p0, p1, p2, bu, bv, bw);
     const wp::vec3 c = wp::cross(wp::sub(p1, p0), wp::sub(p2, p0));
     const float c_len = wp::length(c);
     ng = wh_select(c_len > 0.0f, wp::div(c, c_len), wp::neg(wh_normalize(d)));
     front = !(wp::dot(ng, d) > 0.0f);
     ng = wh_select(front, ng, wp::neg(ng));
-    u = wp::add(wp::add(wp::mul(t0[0], bu), wp::mul(t1[0], bv)), wp::mul(t2[0], bw));
-    v = wp::add(wp::add(wp::mul(t0[1], bu), wp::mul(t1[1], bv)), wp::mul(t2[1], bw));
-    const wp::vec3 s = wp::add(wp::add(wp::mul(n0, bu), wp::mul(n1, bv)), wp::mul(n2, bw));
+    u = wh_corners(t0[0], t1[0], t2[0], bu, bv, bw);
+    v = wh_corners(t0[1], t1[1], t2[1], bu, bv, bw);
+    const wp::vec3 s = wh_corners(n0, n1, n2, bu, bv, bw);
     const float s_len = wp::length(s);
     n = wh_select(s_len > 1.0e-12f, wp::div(s, s_len), ng);
     away = wp::dot(n, d) > 0.0f;
@@ -368,7 +372,7 @@ auto wh_material = [&](const auto& scene, const auto& m, int k, float bu, float 
     if ((m.flags & {int(FLAG_VERTEX_COLOR)}) != 0) {{
         const float bw = wp::sub(wp::sub(1.0f, bu), bv);
         const wp::vec3* cc = scene.corner_colors.data;
-        diffuse = wp::add(wp::add(wp::mul(cc[k], bu), wp::mul(cc[k + 1], bv)), wp::mul(cc[k + 2], bw));
+        diffuse = wh_corners(cc[k], cc[k + 1], cc[k + 2], bu, bv, bw);
     }}
     if (m.diffuse_tex >= 0) {{
         const wp::vec4 s = wh_sample_grad(scene, m.diffuse_tex, uv, fp);
@@ -526,12 +530,14 @@ def _channel(v: wp.vec4, c: int) -> float:
     return v[wp.clamp(c, 0, 3)]
 
 
-@wp.func(inline=True)
+@wp.func_native(
+    SURFACE_CPP
+    + """const wp::vec2* uvs = scene.corner_uvs.data + 3 * tri;
+return wh_corners(uvs[0], uvs[1], uvs[2], bu, bv, wp::sub(wp::sub(1.0f, bu), bv));"""
+)
 def interpolate_uv(scene: SceneGPU, tri: int, bu: float, bv: float) -> wp.vec2:
     """Texture coordinates at barycentrics (bu, bv) of triangle ``tri``."""
-    bw = 1.0 - bu - bv
-    k = 3 * tri
-    return scene.corner_uvs[k] * bu + scene.corner_uvs[k + 1] * bv + scene.corner_uvs[k + 2] * bw
+    ...
 
 
 @wp.func(inline=True)

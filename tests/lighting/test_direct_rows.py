@@ -10,7 +10,7 @@ import warp as wp
 from warp_hybrid.core.camera import CameraGPU, make_camera_gpu, pixel_ray
 from warp_hybrid.core.gbuffer import GBuffer, GBufferArrays
 from warp_hybrid.core.scene_gpu import AmbientGPU, SceneGPU
-from warp_hybrid.lighting.ambient import ambient_irradiance, direction_free
+from warp_hybrid.lighting.ambient import direction_free
 from warp_hybrid.lighting.direct_rows import direct_span, lit_span
 from warp_hybrid.lighting.shading import diffuse_albedo, direct_light, shade_surface
 from warp_hybrid.scene.authoring.builders import look_at_camera, make_scene, quad
@@ -53,10 +53,7 @@ def lit_rows_kernel(
     scene: SceneGPU, amb: AmbientGPU, cam: CameraGPU, gb: GBufferArrays, out: wp.array2d(dtype=wp.vec3)
 ):
     y = wp.tid()
-    up = wp.vec3(0.0, 0.0, 1.0)
-    e = ambient_irradiance(scene, amb, up)
-    sky = environment_radiance(scene, up)
-    lit_span(scene, amb, cam, gb, out, 0, scene.light_count, e, sky, y, 0, cam.width)
+    lit_span(scene, amb, cam, gb, out, 0, scene.light_count, y, 0, cam.width)
 
 
 @wp.kernel
@@ -188,23 +185,42 @@ def test_row_loop_matches_the_scalar_sum(device, lights, dome):
         np.testing.assert_allclose(got, want, rtol=1e-6, atol=1e-7)
 
 
-@pytest.mark.parametrize("dome", [False, True])
+def _dome(kind: str, rng: np.random.Generator) -> dict:
+    """``make_scene`` arguments for no dome ("none"), a constant one ("constant") or one
+    with a random 32x64 lat-long texture ("textured": three mip levels, every SH band)."""
+    if kind == "none":
+        return {}
+    if kind == "constant":
+        return {"environment": Environment("dome", (0.2, 0.3, 0.4))}
+    pixels = rng.uniform(0.0, 2.0, (32, 64, 4)).astype(np.float32)
+    return {
+        "environment": Environment("dome", (0.9, 1.0, 1.1), texture=0),
+        "textures": [TextureBinding(0)],
+        "images": [TextureImage("<sky>", pixels)],
+    }
+
+
+@pytest.mark.parametrize("dome", ["none", "constant", "textured"])
 @pytest.mark.parametrize("indirect", [False, True])
 def test_lit_row_loop_matches_the_scalar_shading(device, dome, indirect):
-    """The whole radiance under no dome or an untextured one (with and without the
-    lights' indirect estimate in the ambient irradiance): emission, every kind of light,
-    the ambient diffuse and glossy terms, light through glass, and the dome's colour on
-    background pixels, the same as ``shade_surface`` pixel by pixel."""
+    """The whole radiance under no dome, an untextured one and a textured one (with and
+    without the lights' indirect estimate in the ambient irradiance): emission, every
+    kind of light, the ambient diffuse and glossy terms (mirror-sharp, between mip
+    levels and past the last one), light through glass, and the dome on background
+    pixels, the same as ``shade_surface`` pixel by pixel."""
     rng = np.random.default_rng(11)
     materials = [Material("paint"), Material("glass", opacity=0.3, ior=1.5)]
-    env = Environment("dome", (0.2, 0.3, 0.4)) if dome else None
-    scene = make_scene([quad((-3, -1, -3), (6, 0, 0), (0, 0, 6))], materials, lights=_lights("all"), environment=env)
+    scene = make_scene([quad((-3, -1, -3), (6, 0, 0), (0, 0, 6))], materials, lights=_lights("all"), **_dome(dome, rng))
     ds = DeviceScene(scene, device, indirect=indirect)
     flag = wp.zeros(1, dtype=wp.int32, device=device)
     wp.launch(direction_free_kernel, dim=1, inputs=[ds.gpu, ds.ambient, flag], device=device)
-    assert flag.numpy()[0] == 1
+    assert flag.numpy()[0] == (0 if dome == "textured" else 1)
     cam = make_camera_gpu(look_at_camera((0.5, 3.0, 4.0), (0.0, 0.0, 0.0)), W, H)
     gb = _gbuffer(device, rng)
+    optics = gb.optics.numpy()
+    optics["roughness"][:, ::4] = 0.0  # the dome's own texture (mip level 0)
+    optics["roughness"][:, 1::4] = 1.0  # past the last level: blended into the SH irradiance
+    gb.optics.assign(optics)
     emission = np.zeros((H, W, 3), np.float32)
     emission[:, ::5] = rng.uniform(0.0, 2.0, (H, len(range(0, W, 5)), 3))
     gb.emission.assign(emission)
@@ -218,29 +234,16 @@ def test_lit_row_loop_matches_the_scalar_shading(device, dome, indirect):
     wp.launch(lit_scalar_kernel, dim=(H, W), inputs=[*inputs, want], device=device)
     got, want = got.numpy(), want.numpy()
     assert np.all(np.isfinite(want)) and want.max() > 0.1
-    sky = np.asarray(env.color, np.float32) if dome else np.zeros(3, np.float32)
-    np.testing.assert_array_equal(want[triangles < 0], np.broadcast_to(sky, want[triangles < 0].shape))
+    background = want[triangles < 0]
+    if dome == "textured":
+        assert ds.ambient.levels == 3 and ds.ambient.sh_bands == 3
+        assert np.ptp(background, axis=0).min() > 0.05  # the background reads the texture
+    else:
+        sky = np.asarray(scene.environment.color, np.float32) if dome == "constant" else np.zeros(3, np.float32)
+        np.testing.assert_array_equal(background, np.broadcast_to(sky, background.shape))
     if indirect:
         assert max(ds.ambient.indirect) > 0.0
     if device == "cpu":
         np.testing.assert_array_equal(got, want)
     else:
         np.testing.assert_allclose(got, want, rtol=1e-6, atol=1e-7)
-
-
-def test_a_textured_dome_is_not_direction_free(device):
-    """A dome with a texture varies with direction: the lighting kernel's per-pixel path."""
-    rng = np.random.default_rng(3)
-    pixels = rng.uniform(0.0, 1.0, (8, 16, 4)).astype(np.float32)
-    scene = make_scene(
-        [quad((-3, -1, -3), (6, 0, 0), (0, 0, 6))],
-        [Material("paint")],
-        lights=_lights("rect"),
-        environment=Environment("dome", (1.0, 1.0, 1.0), texture=0),
-        textures=[TextureBinding(0)],
-        images=[TextureImage("<sky>", pixels)],
-    )
-    ds = DeviceScene(scene, device)
-    flag = wp.zeros(1, dtype=wp.int32, device=device)
-    wp.launch(direction_free_kernel, dim=1, inputs=[ds.gpu, ds.ambient, flag], device=device)
-    assert flag.numpy()[0] == 0

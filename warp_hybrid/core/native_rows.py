@@ -42,6 +42,11 @@ auto wh_normalize = [&](const wp::vec3& a) WH_INLINE -> wp::vec3 {
 """
 
 
+def float_literal(value: float) -> str:
+    """A C++ float32 literal of ``value`` (the nearest float, as Warp's constants round)."""
+    return f"{float(value)!r}f"
+
+
 def row_cpp(array: str, row: str, ctype: str, const: bool = True) -> str:
     """C++ expression: a pointer to ``ctype`` at the start of row ``row`` of the Warp array
     named ``array`` (a step of its first stride in bytes; the row's own elements must be

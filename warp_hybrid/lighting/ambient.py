@@ -16,90 +16,43 @@ from __future__ import annotations
 
 import warp as wp
 
-from ..core.constants import INV_PI, TWO_PI
-from ..core.scene_gpu import AmbientGPU, SceneGPU
-from ..scene.device.environment import (
-    SH_C0,
-    SH_C1,
-    SH_C2,
-    SH_C20,
-    SH_C22,
-    dome_texture_radiance,
-    environment_radiance,
-    environment_uv_wp,
-    latlong_bilinear,
-)
-from .brdf import roughness_to_alpha
+from ..core.scene_gpu import AmbientGPU, EnvironmentGPU, SceneGPU, TextureGPU
 from .native_math import cpp
 
 
-@wp.func(inline=True)
-def sh_irradiance(amb: AmbientGPU, d: wp.vec3) -> wp.vec3:
-    """Irradiance E(d) from the SH coefficients at a unit dome-local direction."""
-    if amb.sh_bands == 1:
-        c = amb.sh[0] * SH_C0
-        return wp.vec3(wp.max(c[0], 0.0), wp.max(c[1], 0.0), wp.max(c[2], 0.0))
-    x = d[0]
-    y = d[1]
-    z = d[2]
-    e = amb.sh[0] * SH_C0
-    e += amb.sh[1] * (SH_C1 * y) + amb.sh[2] * (SH_C1 * z) + amb.sh[3] * (SH_C1 * x)
-    e += amb.sh[4] * (SH_C2 * x * y) + amb.sh[5] * (SH_C2 * y * z)
-    e += amb.sh[6] * (SH_C20 * (3.0 * z * z - 1.0)) + amb.sh[7] * (SH_C2 * x * z)
-    e += amb.sh[8] * (SH_C22 * (x * x - y * y))
-    return wp.vec3(wp.max(e[0], 0.0), wp.max(e[1], 0.0), wp.max(e[2], 0.0))
+@wp.func_native(cpp("ambient_irradiance") + "return wh_dome_irradiance(env, amb, n, true);")
+def _dome_irradiance(env: EnvironmentGPU, amb: AmbientGPU, n: wp.vec3) -> wp.vec3:
+    """``dome_irradiance`` given the scene's dome record."""
+    ...
 
 
 @wp.func(inline=True)
 def dome_irradiance(scene: SceneGPU, amb: AmbientGPU, n: wp.vec3) -> wp.vec3:
-    """Irradiance from the dome on a surface with world normal ``n`` (no occlusion)."""
-    if amb.enabled == 0:
-        return wp.vec3(0.0, 0.0, 0.0)
-    if amb.sh_bands == 1:
-        return sh_irradiance(amb, n)  # direction-free
-    return sh_irradiance(amb, wp.normalize(scene.environment.world_to_light * n))
+    """Irradiance from the dome on a surface with world normal ``n`` (no occlusion):
+    the SH irradiance (band 0 alone for a constant dome) at ``n`` in the dome's frame."""
+    return _dome_irradiance(scene.environment, amb, n)
 
 
-@wp.func(inline=True)
-def _mip_fetch(amb: AmbientGPU, level: int, uv: wp.vec2) -> wp.vec3:
-    """Bilinear fetch from mip ``level`` (1-based) at lat-long ``uv`` (wrap u, clamp v)."""
-    k = level - 1
-    return latlong_bilinear(amb.mip_texels, amb.mip_offset[k], amb.mip_width[k], amb.mip_height[k], uv)
-
-
-@wp.func(inline=True)
-def _level_radiance(scene: SceneGPU, amb: AmbientGPU, level: int, uv: wp.vec2) -> wp.vec3:
-    """Radiance at integer mip ``level`` (0 = the sharp dome texture)."""
-    if level == 0:
-        return dome_texture_radiance(scene, uv)
-    return _mip_fetch(amb, level, uv)
+@wp.func_native(
+    cpp("prefiltered_radiance") + "return wh_prefiltered_radiance(env, textures, texels, amb, d, roughness);"
+)
+def _prefiltered_radiance(
+    env: EnvironmentGPU,
+    textures: wp.array(dtype=TextureGPU),
+    texels: wp.array(dtype=wp.vec4),
+    amb: AmbientGPU,
+    d: wp.vec3,
+    roughness: float,
+) -> wp.vec3:
+    """``prefiltered_radiance`` given the scene's dome, textures and texels."""
+    ...
 
 
 @wp.func(inline=True)
 def prefiltered_radiance(scene: SceneGPU, amb: AmbientGPU, dir_world: wp.vec3, roughness: float) -> wp.vec3:
     """Dome radiance around ``dir_world`` blurred to the width of a GGX lobe of this
     roughness (see the module docstring)."""
-    if amb.enabled == 0:
-        return wp.vec3(0.0, 0.0, 0.0)
-    if amb.levels == 0:
-        return environment_radiance(scene, dir_world)
-    alpha = roughness_to_alpha(roughness)
-    width = alpha * float(amb.base_width) / TWO_PI
-    lod = float(0.0)
-    if width > 1.0:
-        lod = wp.log2(width)
-    d = scene.environment.world_to_light * dir_world
-    uv = environment_uv_wp(d)
-    top = float(amb.levels)
-    if lod >= top:
-        t = wp.min(lod - top, 1.0)
-        return _mip_fetch(amb, amb.levels, uv) * (1.0 - t) + sh_irradiance(amb, wp.normalize(d)) * (INV_PI * t)
-    l0 = int(wp.floor(lod))
-    t = lod - float(l0)
-    lower = _level_radiance(scene, amb, l0, uv)
-    if t <= 0.0:
-        return lower
-    return lower * (1.0 - t) + _level_radiance(scene, amb, l0 + 1, uv) * t
+    return _prefiltered_radiance(scene.environment, scene.textures, scene.texels, amb, dir_world, roughness)
 
 
 @wp.func_native(cpp("env_brdf") + "return wh_env_brdf(amb.brdf_lut, f0, roughness, n_dot_v);")
@@ -109,14 +62,23 @@ def env_brdf(amb: AmbientGPU, f0: wp.vec3, roughness: float, n_dot_v: float) -> 
     ...
 
 
+@wp.func_native(cpp("ambient_irradiance") + "return wh_ambient_irradiance(env, amb, n, true);")
+def _ambient_irradiance(env: EnvironmentGPU, amb: AmbientGPU, n: wp.vec3) -> wp.vec3:
+    """``ambient_irradiance`` given the scene's dome record."""
+    ...
+
+
 @wp.func(inline=True)
 def ambient_irradiance(scene: SceneGPU, amb: AmbientGPU, n: wp.vec3) -> wp.vec3:
     """The irradiance the diffuse ambient term sees at world normal ``n``: the dome's
     plus the lights' indirect estimate ``amb.indirect`` (zero when off)."""
-    e = amb.indirect
-    if amb.enabled != 0:
-        e = dome_irradiance(scene, amb, n) + e
-    return e
+    return _ambient_irradiance(scene.environment, amb, n)
+
+
+@wp.func_native(cpp("ambient_irradiance") + "return wh_direction_free(env, amb);")
+def _direction_free(env: EnvironmentGPU, amb: AmbientGPU) -> bool:
+    """``direction_free`` given the scene's dome record."""
+    ...
 
 
 @wp.func(inline=True)
@@ -124,7 +86,7 @@ def direction_free(scene: SceneGPU, amb: AmbientGPU) -> bool:
     """Whether the dome's light is the same from every direction (no dome, or an
     untextured one): then ``ambient_irradiance`` and ``prefiltered_radiance`` do not
     depend on the normal or the direction, and ``environment_radiance`` is one colour."""
-    return amb.enabled == 0 or (scene.environment.texture < 0 and amb.levels == 0 and amb.sh_bands == 1)
+    return _direction_free(scene.environment, amb)
 
 
 @wp.func_native(cpp("ambient_diffuse") + "return wh_ambient_diffuse(true, e, n, v, kd, f0);")
@@ -141,13 +103,27 @@ def ambient_diffuse(scene: SceneGPU, amb: AmbientGPU, n: wp.vec3, v: wp.vec3, kd
     return ambient_diffuse_under(ambient_irradiance(scene, amb, n), n, v, kd, f0)
 
 
+@wp.func_native(
+    cpp("ambient_specular") + "return wh_ambient_specular(env, textures, texels, amb, n, v, f0, roughness);"
+)
+def _ambient_specular(
+    env: EnvironmentGPU,
+    textures: wp.array(dtype=TextureGPU),
+    texels: wp.array(dtype=wp.vec4),
+    amb: AmbientGPU,
+    n: wp.vec3,
+    v: wp.vec3,
+    f0: wp.vec3,
+    roughness: float,
+) -> wp.vec3:
+    """``ambient_specular`` given the scene's dome, textures and texels."""
+    ...
+
+
 @wp.func(inline=True)
 def ambient_specular(
     scene: SceneGPU, amb: AmbientGPU, n: wp.vec3, v: wp.vec3, f0: wp.vec3, roughness: float
 ) -> wp.vec3:
     """Glossy reflection of the dome: prefiltered radiance along the mirror direction
     times the split-sum specular reflectance."""
-    if amb.enabled == 0:
-        return wp.vec3(0.0, 0.0, 0.0)
-    r = n * (2.0 * wp.dot(n, v)) - v
-    return wp.cw_mul(env_brdf(amb, f0, roughness, wp.dot(n, v)), prefiltered_radiance(scene, amb, r, roughness))
+    return _ambient_specular(scene.environment, scene.textures, scene.texels, amb, n, v, f0, roughness)

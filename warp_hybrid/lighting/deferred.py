@@ -21,15 +21,13 @@ planned window the raster layer is already there.
 
 CPU performance notes: the kernel follows ``Launcher.launch_pixels`` (one launch item
 per row on the CPU, so the big ``SceneGPU``/``AmbientGPU`` arguments are copied once
-per row; one thread per pixel on CUDA).  The lights' direct term of an item's pixels
-comes first, from a native row loop vectorised across pixels
-(``direct_rows``): without shadow maps and a probe, under no dome or an untextured one
-(``ambient.direction_free``: the ambient terms are the same for every normal), the
-loop computes each pixel's whole radiance (``lit_span``) and the row is done; under a
-textured dome the lights' sum (``direct_span``), written into ``color_out`` and read
-back by the per-pixel loop, which adds the rest; with shadow maps one light at a time
-into ``color_out``, each term times its visibility summed into a buffer of the pass's
-own, then the per-pixel loop.  The module compiles with FMA contraction.
+per row; one thread per pixel on CUDA).  Without shadow maps and a probe, a native row
+loop vectorised across pixels (``direct_rows.lit_span``) computes each pixel's whole
+radiance and the row is done.  With a probe the lights' sum comes from the row loop
+(``direct_span``, written into ``color_out`` and read back), then the per-pixel loop
+adds the rest; with shadow maps one light at a time into ``color_out``, each term times
+its visibility summed into a buffer of the pass's own, then the per-pixel loop.  The
+module compiles with FMA contraction.
 """
 
 from __future__ import annotations
@@ -47,7 +45,6 @@ from ..parallel import Launcher
 from ..scene.device import DeviceScene
 from ..scene.device.environment import environment_radiance
 from ..timing import StageTimer
-from .ambient import ambient_irradiance, direction_free
 from .direct_rows import direct_span, lit_span
 from .probe_kernels import ProbeGPU, probe_specular
 from .shading import diffuse_albedo, shade_surface, shade_surface_with
@@ -145,15 +142,11 @@ def _make_shade_kernel(shadowed: bool, probed: bool = False) -> wp.Kernel:
                             scene, sm, i, gb.position[y, x], gb.geometric_normal[y, x], transmissive
                         )
                     direct[y, x] = direct[y, x] + term
-        else:
-            if wp.static(not probed):
-                if direction_free(scene, amb):  # the whole radiance in the row loop
-                    up = wp.vec3(0.0, 0.0, 1.0)  # (any direction)
-                    e = ambient_irradiance(scene, amb, up)
-                    sky = environment_radiance(scene, up)
-                    lit_span(scene, amb, cam, gb, color_out, 0, scene.light_count, e, sky, y, first, stop)
-                    return
+        elif wp.static(probed):
             direct_span(scene, cam, gb, direct, 0, scene.light_count, y, first, stop)
+        else:  # the whole radiance in the row loop
+            lit_span(scene, amb, cam, gb, color_out, 0, scene.light_count, y, first, stop)
+            return
         for x in range(first, stop):
             color_out[y, x] = shade_pixel(scene, amb, cam, gb, probe, x, y, direct[y, x])
 

@@ -2,9 +2,7 @@
 lights' unshadowed responses (``shading.direct_light``, summed over a range of the
 scene's lights: all of them, or one at a time where shadow maps weigh each) for a span
 of one row; ``lit_span``, the pixels' whole radiance (``shading.shade_surface`` over
-that sum, the background's radiance where no surface is hit) where the dome's light is
-the same from every direction (``ambient.direction_free``: no dome or an untextured
-one), so the ambient terms need no lookup per pixel.
+that sum with the dome's ambient terms, the dome's radiance where no surface is hit).
 
 The loop takes ``CHUNK_CPU`` pixels at a time: (1) a gather of the pixels' G-buffer
 channels and material flags, (2) the view direction and the diffuse colour
@@ -13,20 +11,24 @@ channels and material flags, (2) the view direction and the diffuse colour
 and its cone decided once (the compiler vectorises this across pixels; a rect light's
 chunk takes the short path where the rectangle lies above every pixel's horizon, the
 clipped polygon where it lies above none, both and a choice per pixel where it is
-mixed), and (4) the sum, or in ``lit_span`` the pixel's radiance
-(``wh_surface_radiance`` with the split-sum ``wh_env_brdf`` times the dome's colour).
-The same lambdas as the scalar functions, so the same arithmetic; in ``direct_span``
-background pixels get a value the caller ignores.
+mixed), and (4) the sum, or in ``lit_span`` the pixel's radiance: under a dome whose
+light is the same from every direction (``ambient.direction_free``: none, or an
+untextured one) from one irradiance and one radiance for the row; under a textured one
+the SH irradiance at each normal and the lat-long uv each pixel reads vectorised too,
+only the texel reads (the prefiltered mip chain, the dome behind glass, the background)
+lane by lane; then ``wh_surface_radiance`` with the split-sum ``wh_env_brdf`` across
+pixels again.  The same lambdas as the scalar functions, so the same arithmetic; in
+``direct_span`` background pixels get a value the caller ignores.
 """
 
 from __future__ import annotations
 
 import warp as wp
 
-from ..core.camera import CameraGPU
+from ..core.camera import CAMERA_RAY_CPP, CameraGPU
 from ..core.gbuffer import GBufferArrays
 from ..core.native_rows import CHUNK_CPP, row_cpp
-from ..core.scene_gpu import AmbientGPU, SceneGPU
+from ..core.scene_gpu import FLAG_TRANSMISSIVE, AmbientGPU, SceneGPU
 from .native_math import cpp
 
 # (2) the view direction and the diffuse colour of the chunk's pixels, then (3) every
@@ -82,24 +84,79 @@ _LIGHTS_CPP = """
     }
 """
 
-# (4) of ``lit_span``: the radiance of each pixel, ``shading.shade_surface`` under a
-# direction-free dome (irradiance ``e``, radiance ``sky`` from everywhere, zero
-# without a dome), the background's ``sky`` where no surface is hit.
-_RADIANCE_CPP = """
-    for (int j = 0; j < n; ++j) {
+# (4) of ``lit_span``: what the dome gives each pixel of the chunk, then its radiance.
+# Under a direction-free dome (``ambient.direction_free``) one irradiance ``e_free`` and
+# one radiance ``sky`` for every pixel.  Otherwise (a) across pixels, the irradiance at
+# the normal (SH), the dome-local direction the pixel reads (the mirror direction on a
+# surface, the camera ray on the background) and its lat-long uv; (b) lane by lane (the
+# texel reads), the prefiltered radiance at that uv and the lobe's level (the dome's own
+# radiance on the background) and, for glass, the dome straight behind it.  Then (c)
+# across pixels ``shading.shade_surface`` given those (``wh_surface_radiance`` with the
+# split-sum ``wh_env_brdf`` times the looked-up radiance), the dome's radiance where the
+# pixel sees no surface.
+_RADIANCE_CPP = f"""
+    if (free) {{
+        for (int j = 0; j < n; ++j) {{
+            ir[j] = e_free[0]; ig[j] = e_free[1]; ib[j] = e_free[2];
+            sr[j] = sky[0]; sg[j] = sky[1]; sb[j] = sky[2];
+            tr[j] = sky[0]; tg[j] = sky[1]; tb[j] = sky[2];
+        }}
+    }} else {{
+        for (int j = 0; j < n; ++j) {{
+            const wp::vec3 nn(nx[j], ny[j], nz[j]);
+            const wp::vec3 v(vx[j], vy[j], vz[j]);
+            const wp::vec3 e = wh_ambient_irradiance(env, amb, nn, false);
+            ir[j] = e[0]; ig[j] = e[1]; ib[j] = e[2];
+            const wp::vec3 mirror = wp::sub(wp::mul(nn, wp::mul(2.0f, wp::dot(nn, v))), v);
+            const wp::vec3 ray = wh_pixel_ray(wp::add((float)(xs + j), cam.sample[0]), wp::add((float)y, cam.sample[1]));
+            const wp::vec3 d = wp::mul(env.world_to_light, wh_select(hit[j], mirror, ray));
+            ox[j] = d[0]; oy[j] = d[1]; oz[j] = d[2];
+            const wp::vec2 uv = wh_environment_uv(d);
+            ux[j] = uv[0]; uy[j] = uv[1];
+        }}
+        for (int j = 0; j < n; ++j) {{
+            const wp::vec2 uv(ux[j], uy[j]);
+            wp::vec3 s(0.0f);
+            if (!hit[j]) {{
+                s = wh_environment_radiance_at(env, textures, texels, uv);
+            }} else if (amb.enabled != 0) {{
+                s = amb.levels == 0 ? wh_environment_radiance_at(env, textures, texels, uv)
+                                    : wh_prefiltered_at(env, textures, texels, amb, wp::vec3(ox[j], oy[j], oz[j]), uv,
+                                                        wh_prefilter_lod(amb, rough[j]));
+            }}
+            sr[j] = s[0]; sg[j] = s[1]; sb[j] = s[2];
+            wp::vec3 t(0.0f);
+            if (hit[j] && dome && (flags[j] & {int(FLAG_TRANSMISSIVE)}) != 0) {{
+                t = wh_environment_radiance(env, textures, texels, wp::neg(wp::vec3(vx[j], vy[j], vz[j])));
+            }}
+            tr[j] = t[0]; tg[j] = t[1]; tb[j] = t[2];
+        }}
+    }}
+    for (int j = 0; j < n; ++j) {{
         const wp::vec3 nn(nx[j], ny[j], nz[j]);
         const wp::vec3 v(vx[j], vy[j], vz[j]);
         const wp::vec3 f0(fr[j], fg[j], fb[j]);
+        const wp::vec3 s(sr[j], sg[j], sb[j]);
         const wp::vec3 glossy = wh_select(amb.enabled != 0, wp::cw_mul(wh_env_brdf(amb.brdf_lut, f0, rough[j],
-                                                                                   wp::dot(nn, v)), sky),
+                                                                                   wp::dot(nn, v)), s),
                                           wp::vec3(0.0f));
         const wp::vec3 c = wh_surface_radiance(false, dome, nn, v, wp::vec3(ar[j], ag[j], ab[j]),
                                                wp::vec3(kr[j], kg[j], kb[j]), f0, wp::vec3(er[j], eg[j], eb[j]),
-                                               opac[j], ior[j], flags[j], wp::vec3(dr[j], dg[j], db[j]), e, glossy,
-                                               sky);
-        cr[j] = hit[j] ? c[0] : sky[0]; cg[j] = hit[j] ? c[1] : sky[1]; cb[j] = hit[j] ? c[2] : sky[2];
-    }
+                                               opac[j], ior[j], flags[j], wp::vec3(dr[j], dg[j], db[j]),
+                                               wp::vec3(ir[j], ig[j], ib[j]), glossy, wp::vec3(tr[j], tg[j], tb[j]));
+        cr[j] = hit[j] ? c[0] : s[0]; cg[j] = hit[j] ? c[1] : s[1]; cb[j] = hit[j] ? c[2] : s[2];
+    }}
     for (int j = 0; j < n; ++j) out[xs + j] = wp::vec3(cr[j], cg[j], cb[j]);
+"""
+
+
+# The camera ray through image point (px, py), as ``camera.camera_ray`` (defined before
+# the loop's lane arrays, whose names it would hide).
+_PIXEL_RAY_CPP = f"""
+auto wh_pixel_ray = [&](const float px, const float py) WH_INLINE -> wp::vec3 {{
+{CAMERA_RAY_CPP}
+    return ray;
+}};
 """
 
 
@@ -119,7 +176,15 @@ def _span_cpp(lit: bool) -> str:
         f"""
 const wp::vec3* emission = {row_cpp("gb.emission", "y", "wp::vec3")};
 const int* triangle = {row_cpp("gb.triangle_id", "y", "int")};
-float er[CHUNK], eg[CHUNK], eb[CHUNK];
+const auto& env = scene.environment;
+const auto& textures = scene.textures;
+const auto& texels = scene.texels;
+const bool free = wh_direction_free(env, amb);
+const wp::vec3 up(0.0f, 0.0f, 1.0f);  // (any direction)
+const wp::vec3 e_free = wh_ambient_irradiance(env, amb, up, true);
+const wp::vec3 sky = wh_environment_radiance(env, textures, texels, up);
+float er[CHUNK], eg[CHUNK], eb[CHUNK], ir[CHUNK], ig[CHUNK], ib[CHUNK], sr[CHUNK], sg[CHUNK], sb[CHUNK];
+float tr[CHUNK], tg[CHUNK], tb[CHUNK], ox[CHUNK], oy[CHUNK], oz[CHUNK], ux[CHUNK], uy[CHUNK];
 bool hit[CHUNK];"""
         if lit
         else ""
@@ -127,7 +192,13 @@ bool hit[CHUNK];"""
     store = _RADIANCE_CPP if lit else "    for (int j = 0; j < n; ++j) out[xs + j] = wp::vec3(dr[j], dg[j], db[j]);\n"
     return (
         CHUNK_CPP
-        + cpp("light_sample", "light_response", "diffuse_albedo", *(("env_brdf", "surface_radiance") if lit else ()))
+        + cpp(
+            "light_sample",
+            "light_response",
+            "diffuse_albedo",
+            *(("env_brdf", "surface_radiance", "ambient_irradiance", "prefiltered_radiance") if lit else ()),
+        )
+        + (_PIXEL_RAY_CPP if lit else "")
         + f"""
 const wp::vec3* position = {row_cpp("gb.position", "y", "wp::vec3")};
 const wp::vec3* normal = {row_cpp("gb.normal", "y", "wp::vec3")};
@@ -190,16 +261,13 @@ def lit_span(
     target: wp.array2d(dtype=wp.vec3),
     lights_begin: int,
     lights_end: int,
-    e: wp.vec3,
-    sky: wp.vec3,
     y: int,
     x0: int,
     x1: int,
 ):
-    """Into ``target[y, x]`` for ``x0 <= x < x1``: the pixel's radiance under a
-    direction-free dome (``ambient.direction_free``), given its irradiance ``e``
-    (``ambient.ambient_irradiance``) and its radiance ``sky`` (``environment_radiance``,
-    zero without a dome): ``shading.shade_surface`` over the unshadowed sum of lights
-    ``lights_begin`` .. ``lights_end - 1`` (as ``direct_span``), ``sky`` where the
-    pixel sees no surface; pixel by pixel the same arithmetic."""
+    """Into ``target[y, x]`` for ``x0 <= x < x1``: the pixel's radiance,
+    ``shading.shade_surface`` over the unshadowed sum of lights ``lights_begin`` ..
+    ``lights_end - 1`` (as ``direct_span``) with the dome's ambient terms, the dome's
+    radiance along the camera ray (``environment_radiance``; black without a dome) where
+    the pixel sees no surface; pixel by pixel the same arithmetic."""
     ...

@@ -27,18 +27,14 @@ from dataclasses import dataclass
 
 import warp as wp
 
-from ..core.constants import ALPHA_MIN, INV_PI, LUMA_709_CPP, PI
-from ..core.native_rows import LAMBDA_HEADER_CPP
+from ..core.constants import ALPHA_MIN, INV_PI, LUMA_709_CPP, PI, TWO_PI
+from ..core.native_rows import LAMBDA_HEADER_CPP, float_literal
 from ..core.scene_gpu import FLAG_TRANSMISSIVE
+from ..scene.device.environment import ENVIRONMENT_LAMBDAS_CPP, SH_C0, SH_C1, SH_C2, SH_C20, SH_C22
 from ..scene.model import LightKind
 
 #: The smallest n.v the specular lobe and the glass terms divide by.
 COS_EPS = wp.constant(1.0e-4)
-
-
-def _f(value: float) -> str:
-    """A float32 literal of ``value`` (the nearest float, as Warp's constants round)."""
-    return f"{float(value)!r}f"
 
 
 @dataclass(frozen=True)
@@ -53,10 +49,10 @@ class Piece:
 _HEADER = (
     LAMBDA_HEADER_CPP
     + f"""
-constexpr float WH_PI = {_f(PI)};
-constexpr float WH_INV_PI = {_f(INV_PI)};
-constexpr float WH_ALPHA_MIN = {_f(ALPHA_MIN)};
-constexpr float WH_COS_EPS = {_f(COS_EPS)};
+constexpr float WH_PI = {float_literal(PI)};
+constexpr float WH_INV_PI = {float_literal(INV_PI)};
+constexpr float WH_ALPHA_MIN = {float_literal(ALPHA_MIN)};
+constexpr float WH_COS_EPS = {float_literal(COS_EPS)};
 constexpr int WH_DISTANT = {int(LightKind.DISTANT)};
 constexpr int WH_SPHERE = {int(LightKind.SPHERE)};
 constexpr int WH_RECT = {int(LightKind.RECT)};
@@ -383,6 +379,107 @@ auto wh_cone_factor = [&](const auto& light, const bool has_cone, const float co
     return wp::add(wp::mul(f0, blend(0)), wp::mul(wp::vec3(f90, f90, f90), blend(1)));
 };""",
         ("fresnel_f90",),
+    ),
+    # ---- the dome (scene/device/environment.py's lambdas; ambient.py) ----
+    "environment": Piece(ENVIRONMENT_LAMBDAS_CPP),
+    # Irradiance E(d) from the SH coefficients at a unit dome-local direction (ambient.py
+    # ``dome_irradiance``): band 0 alone where ``amb.sh_bands`` is 1 (branch-free unless
+    # ``scalar``).
+    "sh_irradiance": Piece(
+        f"""auto wh_sh_irradiance = [&](const auto& amb, const wp::vec3& d, const bool scalar) WH_INLINE -> wp::vec3 {{
+    const wp::vec3* sh = amb.sh.data;
+    const wp::vec3 c = wp::mul(sh[0], {float_literal(SH_C0)});
+    const wp::vec3 constant(wp::max(c[0], 0.0f), wp::max(c[1], 0.0f), wp::max(c[2], 0.0f));
+    if (scalar && amb.sh_bands == 1) return constant;
+    const float x = d[0], y = d[1], z = d[2];
+    wp::vec3 e = wp::mul(sh[0], {float_literal(SH_C0)});
+    e = wp::add(e, wp::add(wp::add(wp::mul(sh[1], wp::mul({float_literal(SH_C1)}, y)),
+                                   wp::mul(sh[2], wp::mul({float_literal(SH_C1)}, z))),
+                           wp::mul(sh[3], wp::mul({float_literal(SH_C1)}, x))));
+    e = wp::add(e, wp::add(wp::mul(sh[4], wp::mul(wp::mul({float_literal(SH_C2)}, x), y)),
+                           wp::mul(sh[5], wp::mul(wp::mul({float_literal(SH_C2)}, y), z))));
+    e = wp::add(e, wp::add(wp::mul(sh[6], wp::mul({float_literal(SH_C20)}, wp::sub(wp::mul(wp::mul(3.0f, z), z), 1.0f))),
+                           wp::mul(sh[7], wp::mul(wp::mul({float_literal(SH_C2)}, x), z))));
+    e = wp::add(e, wp::mul(sh[8], wp::mul({float_literal(SH_C22)}, wp::sub(wp::mul(x, x), wp::mul(y, y)))));
+    return wh_select(amb.sh_bands == 1, constant,
+                     wp::vec3(wp::max(e[0], 0.0f), wp::max(e[1], 0.0f), wp::max(e[2], 0.0f)));
+}};"""
+    ),
+    # The irradiance the diffuse ambient term sees at world normal n (ambient.py
+    # ``ambient_irradiance``): the dome's (its SH in the dome's frame) plus the lights'
+    # indirect estimate ``amb.indirect``.
+    "ambient_irradiance": Piece(
+        """auto wh_dome_irradiance = [&](const auto& env, const auto& amb, const wp::vec3& n, const bool scalar) WH_INLINE
+    -> wp::vec3 {
+    if (scalar && amb.enabled == 0) return wp::vec3(0.0f);
+    const wp::vec3 e = wh_sh_irradiance(amb, wh_normalize(wp::mul(env.world_to_light, n)), scalar);
+    return wh_select(amb.enabled == 0, wp::vec3(0.0f), e);
+};
+auto wh_ambient_irradiance = [&](const auto& env, const auto& amb, const wp::vec3& n, const bool scalar) WH_INLINE
+    -> wp::vec3 {
+    return wh_select(amb.enabled != 0, wp::add(wh_dome_irradiance(env, amb, n, scalar), amb.indirect), amb.indirect);
+};
+// Whether the dome's light is the same from every direction (ambient.py ``direction_free``).
+auto wh_direction_free = [&](const auto& env, const auto& amb) WH_INLINE -> bool {
+    return amb.enabled == 0 || (env.texture < 0 && amb.levels == 0 && amb.sh_bands == 1);
+};""",
+        ("sh_irradiance",),
+    ),
+    # The dome's radiance around a direction blurred to a GGX lobe's width (ambient.py
+    # ``prefiltered_radiance``), in two steps a row loop can take apart: the lobe's level
+    # of detail (``wh_prefilter_lod``) and the lookup at dome-local direction d, its uv
+    # and that level (``wh_prefiltered_at``: mip level 0 is the dome's own texture).
+    "prefiltered_radiance": Piece(
+        f"""auto wh_prefilter_lod = [&](const auto& amb, const float roughness) WH_INLINE -> float {{
+    const float width = wp::div(wp::mul(wh_roughness_to_alpha(roughness), (float)amb.base_width), {float_literal(TWO_PI)});
+    return width > 1.0f ? wp::log2(width) : 0.0f;
+}};
+auto wh_mip_fetch = [&](const auto& amb, const int level, const wp::vec2& uv) WH_INLINE -> wp::vec3 {{
+    const int k = level - 1;
+    return wh_latlong_bilinear(amb.mip_texels.data, amb.mip_offset.data[k], amb.mip_width.data[k],
+                               amb.mip_height.data[k], uv);
+}};
+auto wh_level_radiance = [&](const auto& env, const auto& textures, const auto& texels, const auto& amb,
+                             const int level, const wp::vec2& uv) WH_INLINE -> wp::vec3 {{
+    if (level == 0) return wh_dome_texture_radiance(env, textures, texels, uv);
+    return wh_mip_fetch(amb, level, uv);
+}};
+auto wh_prefiltered_at = [&](const auto& env, const auto& textures, const auto& texels, const auto& amb,
+                             const wp::vec3& d, const wp::vec2& uv, const float lod) WH_INLINE -> wp::vec3 {{
+    const float top = (float)amb.levels;
+    if (lod >= top) {{
+        const float t = wp::min(wp::sub(lod, top), 1.0f);
+        return wp::add(wp::mul(wh_mip_fetch(amb, amb.levels, uv), wp::sub(1.0f, t)),
+                       wp::mul(wh_sh_irradiance(amb, wh_normalize(d), true), wp::mul(WH_INV_PI, t)));
+    }}
+    const int l0 = (int)wp::floor(lod);
+    const float t = wp::sub(lod, (float)l0);
+    const wp::vec3 lower = wh_level_radiance(env, textures, texels, amb, l0, uv);
+    if (t <= 0.0f) return lower;
+    return wp::add(wp::mul(lower, wp::sub(1.0f, t)), wp::mul(wh_level_radiance(env, textures, texels, amb, l0 + 1, uv), t));
+}};
+auto wh_prefiltered_radiance = [&](const auto& env, const auto& textures, const auto& texels, const auto& amb,
+                                   const wp::vec3& dir_world, const float roughness) WH_INLINE -> wp::vec3 {{
+    if (amb.enabled == 0) return wp::vec3(0.0f);
+    if (amb.levels == 0) return wh_environment_radiance(env, textures, texels, dir_world);
+    const float lod = wh_prefilter_lod(amb, roughness);
+    const wp::vec3 d = wp::mul(env.world_to_light, dir_world);
+    return wh_prefiltered_at(env, textures, texels, amb, d, wh_environment_uv(d), lod);
+}};""",
+        ("environment", "roughness_to_alpha", "sh_irradiance"),
+    ),
+    # Glossy reflection of the dome (ambient.py ``ambient_specular``): the prefiltered
+    # radiance along the mirror direction times the split-sum reflectance.
+    "ambient_specular": Piece(
+        """auto wh_ambient_specular = [&](const auto& env, const auto& textures, const auto& texels, const auto& amb,
+                              const wp::vec3& n, const wp::vec3& v, const wp::vec3& f0, const float roughness)
+    WH_INLINE -> wp::vec3 {
+    if (amb.enabled == 0) return wp::vec3(0.0f);
+    const wp::vec3 r = wp::sub(wp::mul(n, wp::mul(2.0f, wp::dot(n, v))), v);
+    return wp::cw_mul(wh_env_brdf(amb.brdf_lut, f0, roughness, wp::dot(n, v)),
+                      wh_prefiltered_radiance(env, textures, texels, amb, r, roughness));
+};""",
+        ("env_brdf", "prefiltered_radiance"),
     ),
     # Diffuse ambient light kd / pi * e * (1 - F(n.v)) under irradiance e (ambient.py
     # ``ambient_diffuse``); zero where e has no positive channel.

@@ -24,13 +24,13 @@ irradiance (Ramamoorthi & Hanrahan 2001) for the raster ambient term.
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import numpy as np
 import warp as wp
 
 from ...core.constants import PI, TWO_PI
-from ...core.scene_gpu import SceneGPU
+from ...core.native_rows import LAMBDA_HEADER_CPP, float_literal
+from ...core.scene_gpu import EnvironmentGPU, SceneGPU, TextureGPU
 
 # Real SH basis constants, bands 0..2 (order: 00, 1-1, 10, 11, 2-2, 2-1, 20, 21, 22).
 SH_C0 = 0.282095
@@ -118,84 +118,119 @@ def sh_constant_coefficients(color: tuple[float, float, float] | np.ndarray) -> 
     return coeffs.astype(np.float32)
 
 
-@wp.func(inline=True)
+#: C++ lambdas (no header: ``ENVIRONMENT_CPP`` adds it; ``lighting/native_math`` pastes
+#: them among its own pieces): the dome's lookups, the only implementation of each
+#: (the functions below wrap them).  One Warp operation a call (``wp::mul``, ``wp::add``,
+#: ...), in the order of the arithmetic they stand for, so the compiler fuses nothing a
+#: module's own flags do not ask for.  ``wh_latlong_bilinear`` takes any texel type
+#: (vec4 dome texels, vec3 mip levels); the others take the scene's ``environment``
+#: record, its ``textures`` and its ``texels``.
+ENVIRONMENT_LAMBDAS_CPP = f"""
+// atan2(y, x) in float32 to about 2 ulp with one division and no libm call (libm's atan2f
+// costs ~20 ns): Cephes' atanf on the octant ratio t = lo / hi, reduced to |t| <= tan(pi/8)
+// by (lo - hi) / (lo + hi) + pi/4, then a degree-9 odd polynomial; IEEE signs for zeros
+// (atan2(+-0, -0) = +-pi).  Branch-free.
+auto wh_fast_atan2 = [&](const float y, const float x) WH_INLINE -> float {{
+    const float ax = wp::abs(x);
+    const float ay = wp::abs(y);
+    const bool steep = ay > ax;
+    const float hi = steep ? ay : ax;
+    const float lo = steep ? ax : ay;
+    const bool reduce = lo > wp::mul({float_literal(0.41421356237)}, hi);
+    const float t = wp::div(reduce ? wp::sub(lo, hi) : lo, reduce ? wp::add(lo, hi) : hi);
+    const float z = wp::mul(t, t);
+    float r = wp::sub(wp::mul({float_literal(8.05374449538e-2)}, z), {float_literal(1.38776856032e-1)});
+    r = wp::sub(wp::mul(wp::add(wp::mul(r, z), {float_literal(1.99777106478e-1)}), z), {float_literal(3.33329491539e-1)});
+    r = wp::add(wp::mul(wp::mul(r, z), t), t);
+    r = reduce ? wp::add(r, {float_literal(0.785398163397)}) : r;
+    r = hi > 0.0f ? r : 0.0f;
+    r = steep ? wp::sub({float_literal(1.57079632679)}, r) : r;
+    r = wp::copysign(1.0f, x) < 0.0f ? wp::sub({float_literal(3.14159265359)}, r) : r;
+    return wp::copysign(r, y);
+}};
+// A dome-local direction (any non-zero length) -> lat-long uv (the module docstring):
+// lon = atan2(x, z), lat = atan2(y, sqrt(x^2 + z^2)) (= asin of the unit vector's y).
+auto wh_environment_uv = [&](const wp::vec3& d) WH_INLINE -> wp::vec2 {{
+    const float lon = wh_fast_atan2(d[0], d[2]);
+    const float lat = wh_fast_atan2(d[1], wp::sqrt(wp::add(wp::mul(d[0], d[0]), wp::mul(d[2], d[2]))));
+    const float u = wp::sub(0.5f, wp::div(lon, {float_literal(TWO_PI)}));
+    return wp::vec2(u >= 1.0f ? wp::sub(u, 1.0f) : u, wp::add(0.5f, wp::div(lat, {float_literal(PI)})));
+}};
+// Bilinear fetch from a lat-long image stored row-major from its top row at
+// texels[offset:], wrapping in u and clamping in v (USD uv, v = 1 at the top).
+auto wh_latlong_bilinear = [&](const auto* texels, const int offset, const int width, const int height,
+                               const wp::vec2& uv) WH_INLINE {{
+    const float x = wp::sub(wp::mul(uv[0], (float)width), 0.5f);
+    const float y = wp::sub(wp::mul(wp::sub(1.0f, uv[1]), (float)height), 0.5f);
+    const float x0f = wp::floor(x);
+    const float y0f = wp::floor(y);
+    const float fx = wp::sub(x, x0f);
+    const float fy = wp::sub(y, y0f);
+    int x0 = (int)x0f;
+    x0 = x0 < 0 ? x0 + width : (x0 >= width ? x0 - width : x0);
+    const int x1 = x0 + 1 >= width ? 0 : x0 + 1;
+    const int y0 = wp::clamp((int)y0f, 0, height - 1);
+    const int y1 = wp::min((int)y0f + 1, height - 1);
+    const int r0 = offset + y0 * width;
+    const int r1 = offset + wp::max(y1, 0) * width;
+    const auto top = wp::add(wp::mul(texels[r0 + x0], wp::sub(1.0f, fx)), wp::mul(texels[r0 + x1], fx));
+    const auto bottom = wp::add(wp::mul(texels[r1 + x0], wp::sub(1.0f, fx)), wp::mul(texels[r1 + x1], fx));
+    return wp::add(wp::mul(top, wp::sub(1.0f, fy)), wp::mul(bottom, fy));
+}};
+// color * (texel * scale + bias) of the dome's texture at lat-long uv (the dome must have one).
+auto wh_dome_texture_radiance = [&](const auto& env, const auto& textures, const auto& texels, const wp::vec2& uv)
+    WH_INLINE -> wp::vec3 {{
+    const auto& tex = textures.data[env.texture];
+    const wp::vec4 t = wp::add(wp::cw_mul(wh_latlong_bilinear(texels.data, tex.offset, tex.width, tex.height, uv),
+                                          tex.scale), tex.bias);
+    return wp::cw_mul(env.color, wp::vec3(t[0], t[1], t[2]));
+}};
+// The dome's radiance at lat-long uv (black without a dome, its colour without a texture).
+auto wh_environment_radiance_at = [&](const auto& env, const auto& textures, const auto& texels, const wp::vec2& uv)
+    WH_INLINE -> wp::vec3 {{
+    if (env.enabled == 0) return wp::vec3(0.0f);
+    if (env.texture < 0) return env.color;
+    return wh_dome_texture_radiance(env, textures, texels, uv);
+}};
+// The radiance arriving from world direction dir (any non-zero length) off the dome.
+auto wh_environment_radiance = [&](const auto& env, const auto& textures, const auto& texels, const wp::vec3& dir)
+    WH_INLINE -> wp::vec3 {{
+    if (env.enabled == 0) return wp::vec3(0.0f);
+    if (env.texture < 0) return env.color;
+    return wh_dome_texture_radiance(env, textures, texels, wh_environment_uv(wp::mul(env.world_to_light, dir)));
+}};
+"""
+
+#: The lambdas with their header, for the functions below.
+ENVIRONMENT_CPP = LAMBDA_HEADER_CPP + ENVIRONMENT_LAMBDAS_CPP
+
+
+@wp.func_native(ENVIRONMENT_CPP + "return wh_fast_atan2(y, x);")
 def fast_atan2(y: float, x: float) -> float:
-    """atan2(y, x) in float32 to about 2 ulp, with one division and no libm call (libm's
-    atan2f costs ~20 ns on the CPU).  Cephes' atanf on the octant ratio: t = lo / hi,
-    reduced to |t| <= tan(pi/8) by (lo - hi) / (lo + hi) + pi/4, then a degree-9 odd
-    polynomial; IEEE signs for zeros (atan2(+-0, -0) = +-pi)."""
-    ax = wp.abs(x)
-    ay = wp.abs(y)
-    steep = ay > ax
-    hi = wp.where(steep, ay, ax)
-    lo = wp.where(steep, ax, ay)
-    reduce = lo > 0.41421356237 * hi
-    t = wp.where(reduce, lo - hi, lo) / wp.where(reduce, lo + hi, hi)
-    z = t * t
-    r = (((8.05374449538e-2 * z - 1.38776856032e-1) * z + 1.99777106478e-1) * z - 3.33329491539e-1) * z * t + t
-    r = wp.where(reduce, r + 0.785398163397, r)
-    r = wp.where(hi > 0.0, r, 0.0)
-    r = wp.where(steep, 1.57079632679 - r, r)
-    r = wp.where(wp.copysign(1.0, x) < 0.0, 3.14159265359 - r, r)
-    return wp.copysign(r, y)
+    """atan2(y, x) in float32 to about 2 ulp, with one division and no libm call
+    (``wh_fast_atan2``)."""
+    ...
 
 
-@wp.func(inline=True)
+@wp.func_native(ENVIRONMENT_CPP + "return wh_environment_uv(d);")
 def environment_uv_wp(d: wp.vec3) -> wp.vec2:
     """Dome-local direction (any non-zero length) -> lat-long UV (USD convention; see
     the module doc): ``lon = atan2(x, z)``, ``lat = atan2(y, sqrt(x^2 + z^2))`` (= asin
     of the unit vector's y, without normalising)."""
-    lon = fast_atan2(d[0], d[2])
-    lat = fast_atan2(d[1], wp.sqrt(d[0] * d[0] + d[2] * d[2]))
-    u = 0.5 - lon / TWO_PI
-    if u >= 1.0:
-        u = u - 1.0
-    return wp.vec2(u, 0.5 + lat / PI)
+    ...
 
 
-@wp.func(inline=True)
-def latlong_bilinear(texels: wp.array(dtype=Any), offset: int, width: int, height: int, uv: wp.vec2):
-    """Bilinear fetch from a lat-long image stored row-major from its top row at
-    ``texels[offset:]`` (any texel type: vec4 dome texels, vec3 mip levels): wraps in
-    u, clamps in v (USD uv in [0, 1], v = 1 at the top)."""
-    x = uv[0] * float(width) - 0.5
-    y = (1.0 - uv[1]) * float(height) - 0.5
-    x0f = wp.floor(x)
-    y0f = wp.floor(y)
-    fx = x - x0f
-    fy = y - y0f
-    x0 = int(x0f)
-    if x0 < 0:
-        x0 += width
-    elif x0 >= width:
-        x0 -= width
-    x1 = x0 + 1
-    if x1 >= width:
-        x1 = 0
-    y0 = wp.clamp(int(y0f), 0, height - 1)
-    y1 = wp.min(int(y0f) + 1, height - 1)
-    r0 = offset + y0 * width
-    r1 = offset + wp.max(y1, 0) * width
-    top = texels[r0 + x0] * (1.0 - fx) + texels[r0 + x1] * fx
-    bottom = texels[r1 + x0] * (1.0 - fx) + texels[r1 + x1] * fx
-    return top * (1.0 - fy) + bottom * fy
-
-
-@wp.func(inline=True)
-def dome_texture_radiance(scene: SceneGPU, uv: wp.vec2) -> wp.vec3:
-    """``color * (texel * scale + bias)`` of the dome's texture at lat-long ``uv`` (the
-    dome must have a texture)."""
-    tex = scene.textures[scene.environment.texture]
-    t = wp.cw_mul(latlong_bilinear(scene.texels, tex.offset, tex.width, tex.height, uv), tex.scale) + tex.bias
-    return wp.cw_mul(scene.environment.color, wp.vec3(t[0], t[1], t[2]))
+@wp.func_native(ENVIRONMENT_CPP + "return wh_environment_radiance(env, textures, texels, dir_world);")
+def _environment_radiance(
+    env: EnvironmentGPU, textures: wp.array(dtype=TextureGPU), texels: wp.array(dtype=wp.vec4), dir_world: wp.vec3
+) -> wp.vec3:
+    """``environment_radiance`` given the scene's dome, textures and texels."""
+    ...
 
 
 @wp.func(inline=True)
 def environment_radiance(scene: SceneGPU, dir_world: wp.vec3) -> wp.vec3:
     """Radiance arriving from world direction ``dir_world`` (any non-zero length) off
-    the dome (black without a dome light)."""
-    if scene.environment.enabled == 0:
-        return wp.vec3(0.0, 0.0, 0.0)
-    if scene.environment.texture < 0:
-        return scene.environment.color
-    return dome_texture_radiance(scene, environment_uv_wp(scene.environment.world_to_light * dir_world))
+    the dome (black without a dome light): ``color * (texel * scale + bias)`` of its
+    texture, bilinear in the lat-long image, or ``color`` without one."""
+    return _environment_radiance(scene.environment, scene.textures, scene.texels, dir_world)

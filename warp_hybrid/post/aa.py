@@ -35,20 +35,18 @@ import math
 import numpy as np
 import warp as wp
 
-from ..core.native_rows import CHUNK_CPP, row_cpp
+from ..core.native_rows import CHUNK_CPP, LAMBDA_HEADER_CPP, float_literal, row_cpp
 
 EDGE_THRESHOLD = 0.166
 EDGE_THRESHOLD_MIN = 0.0833
-SUBPIX = wp.constant(0.5)
+SUBPIX = 0.5
 #: The edge search's steps (FXAA 3.11 quality preset 39): the first tap 1 px from the
 #: boundary point, then one step per iteration.
 SEARCH_STEP_PX = (1.0, 1.0, 1.0, 1.0, 1.0, 1.5, 2.0, 2.0, 2.0, 2.0, 4.0, 8.0)
-SEARCH_STEPS = wp.constant(len(SEARCH_STEP_PX))
 #: How far (rows or columns) FXAA reads from the pixel it writes: the search's last
 #: bilinear tap, half a pixel past its full length (the 3x3 test and the final colour
 #: tap stay within 1).  A pixel's output changes only if its input changed this close.
 FXAA_REACH_PX = max(1, math.ceil(sum(SEARCH_STEP_PX) + 0.5))
-INV_255 = wp.constant(1.0 / 255.0)
 LUMA_WEIGHTS = (0.299, 0.587, 0.114)  # Rec. 601, as FXAA
 
 
@@ -65,190 +63,14 @@ def luma_table() -> np.ndarray:
 LUMA_OF_CODES_CPP = "lut[r][0] + lut[g][1] + lut[b][2]"
 
 
-@wp.func(inline=True)
-def _texel(img: wp.array3d(dtype=wp.uint8), x: int, y: int) -> wp.vec3:
-    """Texel in [0, 1] with clamp-to-edge addressing."""
-    yy = wp.clamp(y, 0, img.shape[0] - 1)
-    xx = wp.clamp(x, 0, img.shape[1] - 1)
-    return wp.vec3(float(img[yy, xx, 0]) * INV_255, float(img[yy, xx, 1]) * INV_255, float(img[yy, xx, 2]) * INV_255)
-
-
 #: C++: the luma buffer's texel (x, y) with clamp-to-edge addressing.
 _LUMA_AT_CPP = """
-auto luma_at = [&](int x, int y) -> float {
+auto luma_at = [&](int x, int y) WH_INLINE -> float {
     const int yy = wp::clamp(y, 0, (int)luma.shape[0] - 1);
     const int xx = wp::clamp(x, 0, (int)luma.shape[1] - 1);
     return *(const float*)((const char*)luma.data + (size_t)yy * luma.strides[0] + (size_t)xx * luma.strides[1]);
 };
 """
-
-
-@wp.func_native(_LUMA_AT_CPP + "return luma_at(x, y);")
-def _luma(luma: wp.array2d(dtype=float), x: int, y: int) -> float:
-    """Luma with clamp-to-edge addressing."""
-    ...
-
-
-@wp.func(inline=True)
-def _bilinear(img: wp.array3d(dtype=wp.uint8), px: float, py: float) -> wp.vec3:
-    """Bilinear colour at continuous pixel coordinates (pixel centres at i + 0.5).  Taps
-    whose weight is exactly 0 are skipped (the blend offset moves along one axis only),
-    which leaves the result unchanged bit for bit."""
-    x = px - 0.5
-    y = py - 0.5
-    x0f = wp.floor(x)
-    y0f = wp.floor(y)
-    fx = x - x0f
-    fy = y - y0f
-    x0 = int(x0f)
-    y0 = int(y0f)
-    top = _texel(img, x0, y0)
-    if fx > 0.0:
-        top = top * (1.0 - fx) + _texel(img, x0 + 1, y0) * fx
-    if fy > 0.0:
-        bottom = _texel(img, x0, y0 + 1)
-        if fx > 0.0:
-            bottom = bottom * (1.0 - fx) + _texel(img, x0 + 1, y0 + 1) * fx
-        return top * (1.0 - fy) + bottom * fy
-    return top
-
-
-@wp.func_native(
-    _LUMA_AT_CPP
-    + """
-const float x = wp::sub(px, 0.5f);
-const float y = wp::sub(py, 0.5f);
-const float x0f = wp::floor(x);
-const float y0f = wp::floor(y);
-const float fx = wp::sub(x, x0f);
-const float fy = wp::sub(y, y0f);
-const int x0 = (int)x0f;
-const int y0 = (int)y0f;
-float top = luma_at(x0, y0);
-if (fx > 0.0f) top = wp::add(wp::mul(top, wp::sub(1.0f, fx)), wp::mul(luma_at(x0 + 1, y0), fx));
-if (!(fy > 0.0f)) return top;
-float bottom = luma_at(x0, y0 + 1);
-if (fx > 0.0f) bottom = wp::add(wp::mul(bottom, wp::sub(1.0f, fx)), wp::mul(luma_at(x0 + 1, y0 + 1), fx));
-return wp::add(wp::mul(top, wp::sub(1.0f, fy)), wp::mul(bottom, fy));
-"""
-)
-def _bilinear_luma(luma: wp.array2d(dtype=float), px: float, py: float) -> float:
-    """Bilinear luma at continuous pixel coordinates (``_bilinear``'s taps, on the luma
-    buffer), in native code (Warp's 2-D indexing and clamps cost the edge search a
-    fifth of its time)."""
-    ...
-
-
-@wp.func_native(
-    "static const float steps[] = {" + ", ".join(f"{v!r}f" for v in SEARCH_STEP_PX) + "};\nreturn steps[i];"
-)
-def _search_step(i: int) -> float:
-    """The search's step length (pixels) at iteration i >= 1 (``SEARCH_STEP_PX``), from a
-    static table (a Warp vector constant is built again on every call)."""
-    ...
-
-
-@wp.func
-def fxaa_edge(
-    img: wp.array3d(dtype=wp.uint8),
-    luma: wp.array2d(dtype=float),
-    x: int,
-    y: int,
-    lc: float,
-    lu: float,
-    ld: float,
-    ll: float,
-    lr: float,
-    rng: float,
-) -> wp.vec3:
-    """Steps 2-4 for a pixel that passed the contrast test: the blended colour in [0, 1]."""
-    lul = _luma(luma, x - 1, y - 1)
-    lur = _luma(luma, x + 1, y - 1)
-    ldl = _luma(luma, x - 1, y + 1)
-    ldr = _luma(luma, x + 1, y + 1)
-    lud = lu + ld
-    llr = ll + lr
-    left_corners = lul + ldl
-    right_corners = lur + ldr
-    up_corners = lul + lur
-    down_corners = ldl + ldr
-    edge_h = wp.abs(-2.0 * ll + left_corners) + wp.abs(-2.0 * lc + lud) * 2.0 + wp.abs(-2.0 * lr + right_corners)
-    edge_v = wp.abs(-2.0 * lu + up_corners) + wp.abs(-2.0 * lc + llr) * 2.0 + wp.abs(-2.0 * ld + down_corners)
-    horizontal = edge_h >= edge_v
-
-    # neighbours across the edge: 1 at the negative side, 2 at the positive side
-    luma1 = ll
-    luma2 = lr
-    if horizontal:
-        luma1 = lu
-        luma2 = ld
-    g1 = luma1 - lc
-    g2 = luma2 - lc
-    gradient_scaled = 0.25 * wp.max(wp.abs(g1), wp.abs(g2))
-    step = 1.0
-    local_avg = 0.5 * (luma2 + lc)
-    if wp.abs(g1) >= wp.abs(g2):
-        step = -1.0
-        local_avg = 0.5 * (luma1 + lc)
-
-    cx = float(x) + 0.5
-    cy = float(y) + 0.5
-    # start on the boundary between the two sides; walk along the edge (ox, oy)
-    bx = cx
-    by = cy
-    ox = 0.0
-    oy = 1.0
-    if horizontal:
-        by = cy + 0.5 * step
-        ox = 1.0
-        oy = 0.0
-    else:
-        bx = cx + 0.5 * step
-    # walk each end outward until the luma departs from the edge's mean (the two
-    # ends are independent: each stops at its own first departure)
-    p1x = bx - ox
-    p1y = by - oy
-    end1 = _bilinear_luma(luma, p1x, p1y) - local_avg
-    i = int(1)
-    while i < SEARCH_STEPS and wp.abs(end1) < gradient_scaled:
-        s = _search_step(i)
-        p1x -= ox * s
-        p1y -= oy * s
-        end1 = _bilinear_luma(luma, p1x, p1y) - local_avg
-        i += 1
-    p2x = bx + ox
-    p2y = by + oy
-    end2 = _bilinear_luma(luma, p2x, p2y) - local_avg
-    i = int(1)
-    while i < SEARCH_STEPS and wp.abs(end2) < gradient_scaled:
-        s = _search_step(i)
-        p2x += ox * s
-        p2y += oy * s
-        end2 = _bilinear_luma(luma, p2x, p2y) - local_avg
-        i += 1
-
-    d1 = cy - p1y
-    d2 = p2y - cy
-    if horizontal:
-        d1 = cx - p1x
-        d2 = p2x - cx
-    nearer_end = end2
-    dist = d2
-    if d1 < d2:
-        nearer_end = end1
-        dist = d1
-    offset = 0.0
-    if (nearer_end < 0.0) != (lc < local_avg):
-        offset = 0.5 - dist / (d1 + d2)
-
-    low_pass = (2.0 * (lud + llr) + left_corners + right_corners) / 12.0
-    sub1 = wp.clamp(wp.abs(low_pass - lc) / rng, 0.0, 1.0)
-    sub2 = (-2.0 * sub1 + 3.0) * sub1 * sub1
-    offset = wp.max(offset, sub2 * sub2 * SUBPIX)
-
-    if horizontal:
-        return _bilinear(img, cx, cy + offset * step)
-    return _bilinear(img, cx + offset * step, cy)
 
 
 def _float32_cpp(value: float) -> str:
@@ -277,12 +99,6 @@ def _edge_at(x: str, left: str, right: str) -> str:
         f"const float lc = row[{x}]; const float lu = up[{x}]; const float ld = down[{x}];"
         f" const float ll = row[{left}]; const float lr = row[{right}];" + _RANGE_CPP + _EDGE_TEST_CPP
     )
-
-
-@wp.func_native(_RANGE_CPP + "return rng;")
-def luma_range(lc: float, lu: float, ld: float, ll: float, lr: float) -> float:
-    """Step 1's luma range of the centre ``lc`` and its neighbours up, down, left and right."""
-    ...
 
 
 @wp.func_native(
@@ -338,17 +154,152 @@ def fxaa_edge_pixels(
     ...
 
 
-@wp.func(inline=True)
-def fxaa_pixel(
-    img: wp.array3d(dtype=wp.uint8), luma: wp.array2d(dtype=float), out: wp.array3d(dtype=wp.uint8), x: int, y: int
+#: C++: steps 2-4 (module docstring) for the edge pixels a row's contrast test listed,
+#: ``CHUNK`` of them at a time, each loop across the chunk's pixels (the compiler
+#: vectorises them; the taps are gathers).  One Warp operation a call, so the compiler
+#: fuses nothing and every lane is the scalar arithmetic of its pixel; the searches take
+#: their twelve steps together, a lane whose end has stopped kept as it is (the chunk
+#: stops once every end has); a bilinear tap of weight exactly 0 adds 0 to a finite
+#: luma or code, so taking every tap changes no bit against skipping it.
+_EDGE_SPAN_CPP = (
+    CHUNK_CPP
+    + LAMBDA_HEADER_CPP
+    + _LUMA_AT_CPP
+    + f"""
+constexpr float INV_255 = {float_literal(1.0 / 255.0)};  // (float32, as Warp rounds the constant)
+static const float search_steps[] = {{{", ".join(float_literal(v) for v in SEARCH_STEP_PX)}}};
+const int* list = {row_cpp("edges", "y", "int")} + x0;
+wp::uint8* dst = {row_cpp("out", "y", "wp::uint8", const=False)};
+const char* codes = (const char*)img.data;
+auto code = [&](int x, int yy, int k) WH_INLINE -> float {{
+    const int ty = wp::clamp(yy, 0, (int)img.shape[0] - 1);
+    const int tx = wp::clamp(x, 0, (int)img.shape[1] - 1);
+    return wp::mul((float)*(const wp::uint8*)(codes + (size_t)ty * img.strides[0] + (size_t)tx * img.strides[1]
+                                               + (size_t)k * img.strides[2]), INV_255);
+}};
+// bilinear luma and colour channel k at continuous pixel coordinates (pixel centres at i + 0.5)
+auto lerp = [&](float a, float b, float t) WH_INLINE -> float {{
+    return wp::add(wp::mul(a, wp::sub(1.0f, t)), wp::mul(b, t));
+}};
+auto bilinear_luma = [&](float px, float py) WH_INLINE -> float {{
+    const float bx = wp::sub(px, 0.5f), by = wp::sub(py, 0.5f);
+    const float x0f = wp::floor(bx), y0f = wp::floor(by);
+    const float fx = wp::sub(bx, x0f), fy = wp::sub(by, y0f);
+    const int x0 = (int)x0f, y0 = (int)y0f;
+    return lerp(lerp(luma_at(x0, y0), luma_at(x0 + 1, y0), fx), lerp(luma_at(x0, y0 + 1), luma_at(x0 + 1, y0 + 1), fx),
+                fy);
+}};
+auto bilinear_code = [&](float px, float py, int k) WH_INLINE -> float {{
+    const float bx = wp::sub(px, 0.5f), by = wp::sub(py, 0.5f);
+    const float x0f = wp::floor(bx), y0f = wp::floor(by);
+    const float fx = wp::sub(bx, x0f), fy = wp::sub(by, y0f);
+    const int x0 = (int)x0f, y0 = (int)y0f;
+    return lerp(lerp(code(x0, y0, k), code(x0 + 1, y0, k), fx), lerp(code(x0, y0 + 1, k), code(x0 + 1, y0 + 1, k), fx),
+                fy);
+}};
+float cxs[CHUNK], cys[CHUNK], lcs[CHUNK], avg[CHUNK], grad[CHUNK], steps[CHUNK], ox[CHUNK], oy[CHUNK];
+float p1x[CHUNK], p1y[CHUNK], p2x[CHUNK], p2y[CHUNK], end1[CHUNK], end2[CHUNK], sub[CHUNK];
+bool horizontal[CHUNK];
+for (int s0 = 0; s0 < n; s0 += CHUNK) {{
+    const int m = n - s0 < CHUNK ? n - s0 : CHUNK;
+    // step 2: the edge's orientation, its two sides, the search's start (and step 4's
+    // sub-pixel estimate)
+    #pragma clang loop vectorize(enable)
+    for (int j = 0; j < m; ++j) {{
+        const int x = list[s0 + j];
+        const float lc = luma_at(x, y), lu = luma_at(x, y - 1), ld = luma_at(x, y + 1);
+        const float ll = luma_at(x - 1, y), lr = luma_at(x + 1, y);
+        {_RANGE_CPP}
+        const float lul = luma_at(x - 1, y - 1), lur = luma_at(x + 1, y - 1);
+        const float ldl = luma_at(x - 1, y + 1), ldr = luma_at(x + 1, y + 1);
+        const float lud = wp::add(lu, ld), llr = wp::add(ll, lr);
+        const float left_corners = wp::add(lul, ldl), right_corners = wp::add(lur, ldr);
+        const float up_corners = wp::add(lul, lur), down_corners = wp::add(ldl, ldr);
+        const float edge_h = wp::add(wp::add(wp::abs(wp::add(wp::mul(-2.0f, ll), left_corners)),
+                                             wp::mul(wp::abs(wp::add(wp::mul(-2.0f, lc), lud)), 2.0f)),
+                                     wp::abs(wp::add(wp::mul(-2.0f, lr), right_corners)));
+        const float edge_v = wp::add(wp::add(wp::abs(wp::add(wp::mul(-2.0f, lu), up_corners)),
+                                             wp::mul(wp::abs(wp::add(wp::mul(-2.0f, lc), llr)), 2.0f)),
+                                     wp::abs(wp::add(wp::mul(-2.0f, ld), down_corners)));
+        const bool h = edge_h >= edge_v;
+        const float luma1 = h ? lu : ll, luma2 = h ? ld : lr;
+        const float g1 = wp::sub(luma1, lc), g2 = wp::sub(luma2, lc);
+        const bool negative = wp::abs(g1) >= wp::abs(g2);
+        const float step = negative ? -1.0f : 1.0f;
+        const float local_avg = wp::mul(0.5f, wp::add(negative ? luma1 : luma2, lc));
+        const float cx = wp::add((float)x, 0.5f), cy = wp::add((float)y, 0.5f);
+        const float bx = h ? cx : wp::add(cx, wp::mul(0.5f, step));
+        const float by = h ? wp::add(cy, wp::mul(0.5f, step)) : cy;
+        ox[j] = h ? 1.0f : 0.0f;
+        oy[j] = h ? 0.0f : 1.0f;
+        p1x[j] = wp::sub(bx, ox[j]); p1y[j] = wp::sub(by, oy[j]);
+        p2x[j] = wp::add(bx, ox[j]); p2y[j] = wp::add(by, oy[j]);
+        grad[j] = wp::mul(0.25f, wp::max(wp::abs(g1), wp::abs(g2)));
+        avg[j] = local_avg;
+        steps[j] = step;
+        cxs[j] = cx; cys[j] = cy; lcs[j] = lc;
+        horizontal[j] = h;
+        const float low_pass = wp::div(wp::add(wp::add(wp::mul(2.0f, wp::add(lud, llr)), left_corners), right_corners),
+                                       12.0f);
+        const float sub1 = wp::clamp(wp::div(wp::abs(wp::sub(low_pass, lc)), rng), 0.0f, 1.0f);
+        const float sub2 = wp::mul(wp::mul(wp::add(wp::mul(-2.0f, sub1), 3.0f), sub1), sub1);
+        sub[j] = wp::mul(wp::mul(sub2, sub2), {float_literal(SUBPIX)});
+    }}
+    // step 3: each end walks outward until its luma departs from the edge's mean (lane by
+    // lane: most ends stop within a few steps)
+    for (int j = 0; j < m; ++j) {{
+        const float gj = grad[j], aj = avg[j], sx = ox[j], sy = oy[j];
+        float x1 = p1x[j], y1 = p1y[j], x2 = p2x[j], y2 = p2y[j];
+        float e1 = wp::sub(bilinear_luma(x1, y1), aj);
+        for (int i = 1; i < {len(SEARCH_STEP_PX)} && wp::abs(e1) < gj; ++i) {{
+            x1 = wp::sub(x1, wp::mul(sx, search_steps[i]));
+            y1 = wp::sub(y1, wp::mul(sy, search_steps[i]));
+            e1 = wp::sub(bilinear_luma(x1, y1), aj);
+        }}
+        float e2 = wp::sub(bilinear_luma(x2, y2), aj);
+        for (int i = 1; i < {len(SEARCH_STEP_PX)} && wp::abs(e2) < gj; ++i) {{
+            x2 = wp::add(x2, wp::mul(sx, search_steps[i]));
+            y2 = wp::add(y2, wp::mul(sy, search_steps[i]));
+            e2 = wp::sub(bilinear_luma(x2, y2), aj);
+        }}
+        p1x[j] = x1; p1y[j] = y1; p2x[j] = x2; p2y[j] = y2; end1[j] = e1; end2[j] = e2;
+    }}
+    // step 4: the blend offset and the colour there, as 8-bit codes
+    #pragma clang loop vectorize(enable)
+    for (int j = 0; j < m; ++j) {{
+        const bool h = horizontal[j];
+        const float cx = cxs[j], cy = cys[j];
+        const float d1 = h ? wp::sub(cx, p1x[j]) : wp::sub(cy, p1y[j]);
+        const float d2 = h ? wp::sub(p2x[j], cx) : wp::sub(p2y[j], cy);
+        const float nearer_end = d1 < d2 ? end1[j] : end2[j];
+        const float dist = d1 < d2 ? d1 : d2;
+        const bool confirmed = (nearer_end < 0.0f) != (lcs[j] < avg[j]);
+        float offset = confirmed ? wp::sub(0.5f, wp::div(dist, wp::add(d1, d2))) : 0.0f;
+        offset = wp::max(offset, sub[j]);
+        const float shift = wp::mul(offset, steps[j]);
+        const float px = h ? cx : wp::add(cx, shift), py = h ? wp::add(cy, shift) : cy;
+        const int x = list[s0 + j];
+        for (int k = 0; k < 3; ++k) {{
+            const float c = bilinear_code(px, py, k);
+            dst[3 * x + k] = (wp::uint8)(int)wp::add(wp::mul(wp::clamp(c, 0.0f, 1.0f), 255.0f), 0.5f);
+        }}
+    }}
+}}
+"""
+)
+
+
+@wp.func_native(_EDGE_SPAN_CPP)
+def fxaa_edge_span(
+    img: wp.array3d(dtype=wp.uint8),
+    luma: wp.array2d(dtype=float),
+    out: wp.array3d(dtype=wp.uint8),
+    edges: wp.array2d(dtype=wp.int32),
+    y: int,
+    x0: int,
+    n: int,
 ):
-    """Write the anti-aliased 8-bit colour of pixel (x, y) of ``img`` (luma beside it in
-    ``luma``), one ``fxaa_edge_pixels`` listed (it passed the contrast test), into ``out``."""
-    lc = luma[y, x]
-    lu = _luma(luma, x, y - 1)
-    ld = _luma(luma, x, y + 1)
-    ll = _luma(luma, x - 1, y)
-    lr = _luma(luma, x + 1, y)
-    c = fxaa_edge(img, luma, x, y, lc, lu, ld, ll, lr, luma_range(lc, lu, ld, ll, lr))
-    for k in range(3):
-        out[y, x, k] = wp.uint8(int(wp.clamp(c[k], 0.0, 1.0) * 255.0 + 0.5))
+    """Steps 2-4 for the ``n`` pixels of row ``y`` that ``fxaa_edge_pixels`` listed in
+    ``edges[y, x0:]``: each one's anti-aliased 8-bit colour of ``img`` (its luma in
+    ``luma``) into ``out`` (``_EDGE_SPAN_CPP``)."""
+    ...

@@ -17,7 +17,7 @@ import warp as wp
 
 from ..core.constants import luma709
 from ..core.native_rows import CHUNK_CPP, row_cpp
-from .aa import LUMA_OF_CODES_CPP, fxaa_edge_pixels, fxaa_pixel
+from .aa import LUMA_OF_CODES_CPP, fxaa_edge_pixels, fxaa_edge_span
 from .color import SRGB_QUANTIZE_CPP, Srgb8Encoder
 from .exposure import LOG_DELTA, Exposure, exposure_from_log_sum, pairwise_sum
 from .tonemap import CHANNEL_CPP
@@ -218,5 +218,5 @@ def fxaa_pixels(
     stop = wp.min(c * cols + cols, x1)
     if first < stop:
         n = fxaa_edge_pixels(ldr, luma, out, edges, y, first, stop)
-        for j in range(n):
-            fxaa_pixel(ldr, luma, out, edges[y, first + j], y)
+        if n > 0:
+            fxaa_edge_span(ldr, luma, out, edges, y, first, n)

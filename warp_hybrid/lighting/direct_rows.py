@@ -95,13 +95,7 @@ _LIGHTS_CPP = """
 # split-sum ``wh_env_brdf`` times the looked-up radiance), the dome's radiance where the
 # pixel sees no surface.
 _RADIANCE_CPP = f"""
-    if (free) {{
-        for (int j = 0; j < n; ++j) {{
-            ir[j] = e_free[0]; ig[j] = e_free[1]; ib[j] = e_free[2];
-            sr[j] = sky[0]; sg[j] = sky[1]; sb[j] = sky[2];
-            tr[j] = sky[0]; tg[j] = sky[1]; tb[j] = sky[2];
-        }}
-    }} else {{
+    if (!free) {{
         for (int j = 0; j < n; ++j) {{
             const wp::vec3 nn(nx[j], ny[j], nz[j]);
             const wp::vec3 v(vx[j], vy[j], vz[j]);
@@ -132,20 +126,26 @@ _RADIANCE_CPP = f"""
             tr[j] = t[0]; tg[j] = t[1]; tb[j] = t[2];
         }}
     }}
-    for (int j = 0; j < n; ++j) {{
-        const wp::vec3 nn(nx[j], ny[j], nz[j]);
-        const wp::vec3 v(vx[j], vy[j], vz[j]);
-        const wp::vec3 f0(fr[j], fg[j], fb[j]);
-        const wp::vec3 s(sr[j], sg[j], sb[j]);
-        const wp::vec3 glossy = wh_select(amb.enabled != 0, wp::cw_mul(wh_env_brdf(amb.brdf_lut, f0, rough[j],
-                                                                                   wp::dot(nn, v)), s),
-                                          wp::vec3(0.0f));
-        const wp::vec3 c = wh_surface_radiance(false, dome, nn, v, wp::vec3(ar[j], ag[j], ab[j]),
-                                               wp::vec3(kr[j], kg[j], kb[j]), f0, wp::vec3(er[j], eg[j], eb[j]),
-                                               opac[j], ior[j], flags[j], wp::vec3(dr[j], dg[j], db[j]),
-                                               wp::vec3(ir[j], ig[j], ib[j]), glossy, wp::vec3(tr[j], tg[j], tb[j]));
-        cr[j] = hit[j] ? c[0] : s[0]; cg[j] = hit[j] ? c[1] : s[1]; cb[j] = hit[j] ? c[2] : s[2];
-    }}
+    // (a literal ``uniform``: the row's one irradiance and radiance, folded in as constants)
+    auto radiance = [&](const bool uniform) WH_INLINE {{
+        for (int j = 0; j < n; ++j) {{
+            const wp::vec3 nn(nx[j], ny[j], nz[j]);
+            const wp::vec3 v(vx[j], vy[j], vz[j]);
+            const wp::vec3 f0(fr[j], fg[j], fb[j]);
+            const wp::vec3 s = uniform ? sky : wp::vec3(sr[j], sg[j], sb[j]);
+            const wp::vec3 e = uniform ? e_free : wp::vec3(ir[j], ig[j], ib[j]);
+            const wp::vec3 t = uniform ? sky : wp::vec3(tr[j], tg[j], tb[j]);
+            const wp::vec3 glossy = wh_select(amb.enabled != 0, wp::cw_mul(wh_env_brdf(amb.brdf_lut, f0, rough[j],
+                                                                                       wp::dot(nn, v)), s),
+                                              wp::vec3(0.0f));
+            const wp::vec3 c = wh_surface_radiance(false, dome, nn, v, wp::vec3(ar[j], ag[j], ab[j]),
+                                                   wp::vec3(kr[j], kg[j], kb[j]), f0, wp::vec3(er[j], eg[j], eb[j]),
+                                                   opac[j], ior[j], flags[j], wp::vec3(dr[j], dg[j], db[j]), e, glossy,
+                                                   t);
+            cr[j] = hit[j] ? c[0] : s[0]; cg[j] = hit[j] ? c[1] : s[1]; cb[j] = hit[j] ? c[2] : s[2];
+        }}
+    }};
+    if (free) radiance(true); else radiance(false);
     for (int j = 0; j < n; ++j) out[xs + j] = wp::vec3(cr[j], cg[j], cb[j]);
 """
 

@@ -95,7 +95,7 @@ _LIGHTS_CPP = """
 # split-sum ``wh_env_brdf`` times the looked-up radiance), the dome's radiance where the
 # pixel sees no surface.
 _RADIANCE_CPP = f"""
-    if (!free) {{
+    if (!uniform_dome) {{
         for (int j = 0; j < n; ++j) {{
             const wp::vec3 nn(nx[j], ny[j], nz[j]);
             const wp::vec3 v(vx[j], vy[j], vz[j]);
@@ -145,7 +145,7 @@ _RADIANCE_CPP = f"""
             cr[j] = hit[j] ? c[0] : s[0]; cg[j] = hit[j] ? c[1] : s[1]; cb[j] = hit[j] ? c[2] : s[2];
         }}
     }};
-    if (free) radiance(true); else radiance(false);
+    if (uniform_dome) radiance(true); else radiance(false);
     for (int j = 0; j < n; ++j) out[xs + j] = wp::vec3(cr[j], cg[j], cb[j]);
 """
 
@@ -179,7 +179,7 @@ const int* triangle = {row_cpp("gb.triangle_id", "y", "int")};
 const auto& env = scene.environment;
 const auto& textures = scene.textures;
 const auto& texels = scene.texels;
-const bool free = wh_direction_free(env, amb);
+const bool uniform_dome = wh_direction_free(env, amb);
 const wp::vec3 up(0.0f, 0.0f, 1.0f);  // (any direction)
 const wp::vec3 e_free = wh_ambient_irradiance(env, amb, up, true);
 const wp::vec3 sky = wh_environment_radiance(env, textures, texels, up);

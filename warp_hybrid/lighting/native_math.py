@@ -7,8 +7,10 @@ two kinds of caller.
 * The deferred pass's row loops (``direct_rows.py``) evaluate the same lambdas over a
   chunk of pixels at a time, one light at a time, as plain arithmetic the compiler
   vectorises across pixels (a light's kind and cone are the same for every pixel of the
-  loop, so they are decided outside it), and where the dome is direction-free the
-  ambient terms and the sum too.
+  loop, so they are decided outside it), and the dome's ambient terms and the sum too.
+
+The dome's own lookups (the lat-long uv, the bilinear fetch, its radiance) are
+``scene/device/environment.py``'s lambdas, pasted here as the piece "environment".
 
 The Python docstrings of the functions (``brdf.py``, ``lights.py``, ``ambient.py``,
 ``shading.py``) state the model; the text here is its only implementation.  Where a

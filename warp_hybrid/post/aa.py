@@ -155,12 +155,13 @@ def fxaa_edge_pixels(
 
 
 #: C++: steps 2-4 (module docstring) for the edge pixels a row's contrast test listed,
-#: ``CHUNK`` of them at a time, each loop across the chunk's pixels (the compiler
-#: vectorises them; the taps are gathers).  One Warp operation a call, so the compiler
-#: fuses nothing and every lane is the scalar arithmetic of its pixel; the searches take
-#: their twelve steps together, a lane whose end has stopped kept as it is (the chunk
-#: stops once every end has); a bilinear tap of weight exactly 0 adds 0 to a finite
-#: luma or code, so taking every tap changes no bit against skipping it.
+#: ``CHUNK`` of them at a time: the orientation, the sub-pixel estimate and the final
+#: colour tap in loops across the chunk's pixels (the compiler vectorises them; the taps
+#: are gathers), the searches pixel by pixel (most ends stop within a few steps; taken
+#: together, every lane walking until the chunk's last end stopped, they were slower).
+#: One Warp operation a call, so the compiler fuses nothing and every pixel gets the
+#: scalar arithmetic; a bilinear tap of weight exactly 0 adds 0 to a finite luma or code,
+#: so taking every tap changes no bit against skipping it.
 _EDGE_SPAN_CPP = (
     CHUNK_CPP
     + LAMBDA_HEADER_CPP

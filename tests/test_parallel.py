@@ -303,6 +303,31 @@ def test_run_propagates_exceptions(device: str) -> None:
         assert launcher.run(lambda k, n: (k, n)) == [(0, 2), (1, 2)]
 
 
+def test_run_takes_piece_zero_on_the_calling_thread() -> None:
+    """Piece 0 runs on the caller's thread and the others on the pool; when piece 0
+    fails, the others still run to the end before the error reaches the caller."""
+    threads: dict[int, threading.Thread] = {}
+    finished: list[int] = []
+
+    def piece(k: int, n: int) -> int:
+        threads[k] = threading.current_thread()
+        if k == 0:
+            raise ValueError("piece 0 failed")
+        finished.append(k)
+        return k
+
+    with Launcher("cpu", 3) as launcher:
+        assert launcher.run(lambda k, n: (k, threading.current_thread() is threading.main_thread())) == [
+            (0, True),
+            (1, False),
+            (2, False),
+        ]
+        with pytest.raises(ValueError, match="piece 0 failed"):
+            launcher.run(piece)
+    assert threads[0] is threading.main_thread() and threading.main_thread() not in (threads[1], threads[2])
+    assert sorted(finished) == [1, 2]
+
+
 def test_a_launch_profile_times_every_piece_by_kernel(device: str) -> None:
     """Attached, the profile counts each launch once and times each of its pieces (one
     per thread) under the kernel's name, and ``run`` pieces under theirs; detached, it

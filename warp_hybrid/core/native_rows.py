@@ -21,7 +21,8 @@ constexpr int CHUNK = {CHUNK_CPU};
 
 #: C++ every snippet of native lambdas starts with: ``WH_INLINE``, the attribute that forces
 #: them inline on the CPU (a literal argument then folds away and a row loop's body is
-#: straight-line code), and two helpers that keep a loop over lanes vectorisable.
+#: straight-line code), two helpers that keep a loop over lanes vectorisable, and the linear
+#: blend every bilinear tap and mip blend uses.
 LAMBDA_HEADER_CPP = """
 #if !defined(WH_INLINE)
 #if defined(__CUDA_ARCH__)
@@ -33,6 +34,10 @@ LAMBDA_HEADER_CPP = """
 // Per component (a select of whole vectors would keep them in memory, unvectorised).
 auto wh_select = [&](const bool c, const wp::vec3& a, const wp::vec3& b) WH_INLINE -> wp::vec3 {
     return wp::vec3(c ? a[0] : b[0], c ? a[1] : b[1], c ? a[2] : b[2]);
+};
+// a (1 - t) + b t of floats or vectors, one Warp operation a call (so nothing is fused).
+auto wh_lerp = [&](const auto& a, const auto& b, const float t) WH_INLINE {
+    return wp::add(wp::mul(a, wp::sub(1.0f, t)), wp::mul(b, t));
 };
 // ``wp::normalize``'s arithmetic (a zero vector stays zero).
 auto wh_normalize = [&](const wp::vec3& a) WH_INLINE -> wp::vec3 {

@@ -179,24 +179,21 @@ auto code = [&](int x, int yy, int k) WH_INLINE -> float {{
                                                + (size_t)k * img.strides[2]), INV_255);
 }};
 // bilinear luma and colour channel k at continuous pixel coordinates (pixel centres at i + 0.5)
-auto lerp = [&](float a, float b, float t) WH_INLINE -> float {{
-    return wp::add(wp::mul(a, wp::sub(1.0f, t)), wp::mul(b, t));
-}};
 auto bilinear_luma = [&](float px, float py) WH_INLINE -> float {{
     const float bx = wp::sub(px, 0.5f), by = wp::sub(py, 0.5f);
     const float x0f = wp::floor(bx), y0f = wp::floor(by);
     const float fx = wp::sub(bx, x0f), fy = wp::sub(by, y0f);
     const int x0 = (int)x0f, y0 = (int)y0f;
-    return lerp(lerp(luma_at(x0, y0), luma_at(x0 + 1, y0), fx), lerp(luma_at(x0, y0 + 1), luma_at(x0 + 1, y0 + 1), fx),
-                fy);
+    return wh_lerp(wh_lerp(luma_at(x0, y0), luma_at(x0 + 1, y0), fx),
+                   wh_lerp(luma_at(x0, y0 + 1), luma_at(x0 + 1, y0 + 1), fx), fy);
 }};
 auto bilinear_code = [&](float px, float py, int k) WH_INLINE -> float {{
     const float bx = wp::sub(px, 0.5f), by = wp::sub(py, 0.5f);
     const float x0f = wp::floor(bx), y0f = wp::floor(by);
     const float fx = wp::sub(bx, x0f), fy = wp::sub(by, y0f);
     const int x0 = (int)x0f, y0 = (int)y0f;
-    return lerp(lerp(code(x0, y0, k), code(x0 + 1, y0, k), fx), lerp(code(x0, y0 + 1, k), code(x0 + 1, y0 + 1, k), fx),
-                fy);
+    return wh_lerp(wh_lerp(code(x0, y0, k), code(x0 + 1, y0, k), fx),
+                   wh_lerp(code(x0, y0 + 1, k), code(x0 + 1, y0 + 1, k), fx), fy);
 }};
 float cxs[CHUNK], cys[CHUNK], lcs[CHUNK], avg[CHUNK], grad[CHUNK], steps[CHUNK], ox[CHUNK], oy[CHUNK];
 float p1x[CHUNK], p1y[CHUNK], p2x[CHUNK], p2y[CHUNK], end1[CHUNK], end2[CHUNK], sub[CHUNK];

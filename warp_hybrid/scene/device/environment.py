@@ -173,9 +173,7 @@ auto wh_latlong_bilinear = [&](const auto* texels, const int offset, const int w
     const int y1 = wp::min((int)y0f + 1, height - 1);
     const int r0 = offset + y0 * width;
     const int r1 = offset + wp::max(y1, 0) * width;
-    const auto top = wp::add(wp::mul(texels[r0 + x0], wp::sub(1.0f, fx)), wp::mul(texels[r0 + x1], fx));
-    const auto bottom = wp::add(wp::mul(texels[r1 + x0], wp::sub(1.0f, fx)), wp::mul(texels[r1 + x1], fx));
-    return wp::add(wp::mul(top, wp::sub(1.0f, fy)), wp::mul(bottom, fy));
+    return wh_lerp(wh_lerp(texels[r0 + x0], texels[r0 + x1], fx), wh_lerp(texels[r1 + x0], texels[r1 + x1], fx), fy);
 }};
 // color * (texel * scale + bias) of the dome's texture at lat-long uv (the dome must have one).
 auto wh_dome_texture_radiance = [&](const auto& env, const auto& textures, const auto& texels, const wp::vec2& uv)

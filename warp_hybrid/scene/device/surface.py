@@ -101,12 +101,6 @@ class SurfaceHit:
 # mirror i in [-1, 2n].  A non-finite uv (NaN, or an infinity folded to NaN) reads black,
 # never out of bounds.  The operations are those of the Python they replaced, one at a
 # time (``wp::`` calls where Warp would write them), so the bits are too.
-_BILINEAR_TAPS_CPP = """
-    const wp::vec4* row0 = texels + offset + r0 * width;
-    const wp::vec4* row1 = texels + offset + r1 * width;
-    return (row0[c0] * wx0 + row0[c1] * wx1) * wy0 + (row1[c0] * wx0 + row1[c1] * wx1) * wy1;
-"""
-
 #: C++ lambdas: texture sampling (see the module docstring), ``t`` a ``TextureGPU``.
 TEXTURE_CPP = (
     LAMBDA_HEADER_CPP
@@ -126,8 +120,6 @@ auto wh_bilinear_repeat_channel = [&](const wp::vec4* texels, int offset, int wi
     const float y0f = wp::floor(y);
     const float wx1 = x - x0f;
     const float wy1 = y - y0f;
-    const float wx0 = 1.0f - wx1;
-    const float wy0 = 1.0f - wy1;
     int c0 = (int)x0f;
     int r0 = (int)y0f;
     int c1 = c0 + 1;
@@ -138,9 +130,9 @@ auto wh_bilinear_repeat_channel = [&](const wp::vec4* texels, int offset, int wi
     r1 = r1 >= height ? r1 - height : r1;
     const float* row0 = (const float*)(texels + offset + r0 * width);
     const float* row1 = (const float*)(texels + offset + r1 * width);
-    const float top = wp::add(wp::mul(row0[4 * c0 + k], wx0), wp::mul(row0[4 * c1 + k], wx1));
-    const float bottom = wp::add(wp::mul(row1[4 * c0 + k], wx0), wp::mul(row1[4 * c1 + k], wx1));
-    return finite ? wp::add(wp::mul(top, wy0), wp::mul(bottom, wy1)) : 0.0f;
+    const float top = wh_lerp(row0[4 * c0 + k], row0[4 * c1 + k], wx1);
+    const float bottom = wh_lerp(row1[4 * c0 + k], row1[4 * c1 + k], wx1);
+    return finite ? wh_lerp(top, bottom, wy1) : 0.0f;
 };
 // All four channels.
 auto wh_bilinear_repeat = [&](const wp::vec4* texels, int offset, int width, int height, float u,
@@ -187,9 +179,10 @@ auto wh_bilinear_repeat = [&](const wp::vec4* texels, int offset, int width, int
     const float wx1 = weight(fx, x0 + 1, width, wrap_s);
     const float wy0 = weight(1.0f - fy, y0, height, wrap_t);
     const float wy1 = weight(fy, y0 + 1, height, wrap_t);
-"""
-    + _BILINEAR_TAPS_CPP
-    + f"""}};
+    const wp::vec4* row0 = texels + offset + r0 * width;
+    const wp::vec4* row1 = texels + offset + r1 * width;
+    return (row0[c0] * wx0 + row0[c1] * wx1) * wy0 + (row1[c0] * wx0 + row1[c1] * wx1) * wy1;
+}};
 // Bilinear in the width x height level at offset of binding t, its wrap modes (no scale or bias).
 auto wh_bilinear = [&](const wp::vec4* texels, const auto& t, int offset, int width, int height,
                        const wp::vec2& uv) WH_INLINE -> wp::vec4 {{
@@ -232,8 +225,7 @@ auto wh_mip_level = [&](const auto& t, float lod, int& level, float& frac) WH_IN
 }};
 // One channel of a level's texel blended toward the next level's by frac (where frac > 0).
 auto wh_mip_blend = [&](float fine, float coarse, float frac) WH_INLINE -> float {{
-    const float blend = wp::add(wp::mul(fine, wp::sub(1.0f, frac)), wp::mul(coarse, frac));
-    return frac > 0.0f ? blend : fine;
+    return frac > 0.0f ? wh_lerp(fine, coarse, frac) : fine;
 }};
 // The filtered texel (before scale and bias) of binding t: bilinear in the level, blended
 // toward the next one by frac where frac > 0.

@@ -30,6 +30,7 @@ keeps about 80% of its encoded energy instead of about 69%.
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -43,6 +44,9 @@ SUBPIX = 0.5
 #: The edge search's steps (FXAA 3.11 quality preset 39): the first tap 1 px from the
 #: boundary point, then one step per iteration.
 SEARCH_STEP_PX = (1.0, 1.0, 1.0, 1.0, 1.0, 1.5, 2.0, 2.0, 2.0, 2.0, 4.0, 8.0)
+#: Each search tap's distance from the first (``SEARCH_STEP_PX``'s running sums past the
+#: first step): multiples of 0.5, so a tap's position is exact however it is summed.
+SEARCH_OFFSETS_PX = tuple(float(v) for v in itertools.accumulate(SEARCH_STEP_PX[1:], initial=0.0))
 #: How far (rows or columns) FXAA reads from the pixel it writes: the search's last
 #: bilinear tap, half a pixel past its full length (the 3x3 test and the final colour
 #: tap stay within 1).  A pixel's output changes only if its input changed this close.
@@ -157,8 +161,10 @@ def fxaa_edge_pixels(
 #: C++: steps 2-4 (module docstring) for the edge pixels a row's contrast test listed,
 #: ``CHUNK`` of them at a time: the orientation, the sub-pixel estimate and the final
 #: colour tap in loops across the chunk's pixels (the compiler vectorises them; the taps
-#: are gathers), the searches pixel by pixel (most ends stop within a few steps; taken
-#: together, every lane walking until the chunk's last end stopped, they were slower).
+#: are gathers), the searches pixel by pixel, each across its taps: all twelve taps of both
+#: ends at once (their positions, ``SEARCH_OFFSETS_PX`` from the first, do not depend on
+#: the lumas), then each end's first departing one; walked tap by tap, each read waited on
+#: the last one's test.  A tap read past where its end stops changes nothing.
 #: One Warp operation a call, so the compiler fuses nothing and every pixel gets the
 #: scalar arithmetic; a bilinear tap of weight exactly 0 adds 0 to a finite luma or code,
 #: so taking every tap changes no bit against skipping it.
@@ -168,7 +174,8 @@ _EDGE_SPAN_CPP = (
     + _LUMA_AT_CPP
     + f"""
 constexpr float INV_255 = {float_literal(1.0 / 255.0)};  // (float32, as Warp rounds the constant)
-static const float search_steps[] = {{{", ".join(float_literal(v) for v in SEARCH_STEP_PX)}}};
+constexpr int SEARCH_TAPS = {len(SEARCH_OFFSETS_PX)};
+static const float search_offsets[] = {{{", ".join(float_literal(v) for v in SEARCH_OFFSETS_PX)}}};
 const int* list = {row_cpp("edges", "y", "int")} + x0;
 wp::uint8* dst = {row_cpp("out", "y", "wp::uint8", const=False)};
 const char* codes = (const char*)img.data;
@@ -243,24 +250,28 @@ for (int s0 = 0; s0 < n; s0 += CHUNK) {{
         const float sub2 = wp::mul(wp::mul(wp::add(wp::mul(-2.0f, sub1), 3.0f), sub1), sub1);
         sub[j] = wp::mul(wp::mul(sub2, sub2), {float_literal(SUBPIX)});
     }}
-    // step 3: each end walks outward until its luma departs from the edge's mean (lane by
-    // lane: most ends stop within a few steps)
+    // step 3: each end walks outward until its luma departs from the edge's mean.  Where a
+    // walk's taps lie does not depend on the lumas, only where it stops does: every tap of
+    // both ends is read at once (across taps: no chain of dependent reads), then each end
+    // stops at its first departing tap (or its last)
     for (int j = 0; j < m; ++j) {{
         const float gj = grad[j], aj = avg[j], sx = ox[j], sy = oy[j];
-        float x1 = p1x[j], y1 = p1y[j], x2 = p2x[j], y2 = p2y[j];
-        float e1 = wp::sub(bilinear_luma(x1, y1), aj);
-        for (int i = 1; i < {len(SEARCH_STEP_PX)} && wp::abs(e1) < gj; ++i) {{
-            x1 = wp::sub(x1, wp::mul(sx, search_steps[i]));
-            y1 = wp::sub(y1, wp::mul(sy, search_steps[i]));
-            e1 = wp::sub(bilinear_luma(x1, y1), aj);
+        const float x1 = p1x[j], y1 = p1y[j], x2 = p2x[j], y2 = p2y[j];
+        float e1s[SEARCH_TAPS], e2s[SEARCH_TAPS];
+        #pragma clang loop vectorize(enable)
+        for (int i = 0; i < SEARCH_TAPS; ++i) {{
+            const float dx = wp::mul(sx, search_offsets[i]), dy = wp::mul(sy, search_offsets[i]);
+            e1s[i] = wp::sub(bilinear_luma(wp::sub(x1, dx), wp::sub(y1, dy)), aj);
+            e2s[i] = wp::sub(bilinear_luma(wp::add(x2, dx), wp::add(y2, dy)), aj);
         }}
-        float e2 = wp::sub(bilinear_luma(x2, y2), aj);
-        for (int i = 1; i < {len(SEARCH_STEP_PX)} && wp::abs(e2) < gj; ++i) {{
-            x2 = wp::add(x2, wp::mul(sx, search_steps[i]));
-            y2 = wp::add(y2, wp::mul(sy, search_steps[i]));
-            e2 = wp::sub(bilinear_luma(x2, y2), aj);
+        int i1 = SEARCH_TAPS - 1, i2 = SEARCH_TAPS - 1;
+        for (int i = SEARCH_TAPS - 2; i >= 0; --i) {{
+            i1 = wp::abs(e1s[i]) >= gj ? i : i1;
+            i2 = wp::abs(e2s[i]) >= gj ? i : i2;
         }}
-        p1x[j] = x1; p1y[j] = y1; p2x[j] = x2; p2y[j] = y2; end1[j] = e1; end2[j] = e2;
+        p1x[j] = wp::sub(x1, wp::mul(sx, search_offsets[i1])); p1y[j] = wp::sub(y1, wp::mul(sy, search_offsets[i1]));
+        p2x[j] = wp::add(x2, wp::mul(sx, search_offsets[i2])); p2y[j] = wp::add(y2, wp::mul(sy, search_offsets[i2]));
+        end1[j] = e1s[i1]; end2[j] = e2s[i2];
     }}
     // step 4: the blend offset and the colour there, as 8-bit codes
     #pragma clang loop vectorize(enable)

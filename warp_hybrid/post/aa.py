@@ -205,11 +205,13 @@ auto bilinear_code = [&](float px, float py, int k) WH_INLINE -> float {{
 float cxs[CHUNK], cys[CHUNK], lcs[CHUNK], avg[CHUNK], grad[CHUNK], steps[CHUNK], ox[CHUNK], oy[CHUNK];
 float p1x[CHUNK], p1y[CHUNK], p2x[CHUNK], p2y[CHUNK], end1[CHUNK], end2[CHUNK], sub[CHUNK];
 bool horizontal[CHUNK];
+wp::uint8 rgb[3][CHUNK];
 for (int s0 = 0; s0 < n; s0 += CHUNK) {{
     const int m = n - s0 < CHUNK ? n - s0 : CHUNK;
     // step 2: the edge's orientation, its two sides, the search's start (and step 4's
-    // sub-pixel estimate)
-    #pragma clang loop vectorize(enable)
+    // sub-pixel estimate); its stores go only to the chunk's own arrays, which the
+    // compiler could not tell apart from the gathered luma reads without being told
+    #pragma clang loop vectorize(assume_safety)
     for (int j = 0; j < m; ++j) {{
         const int x = list[s0 + j];
         const float lc = luma_at(x, y), lu = luma_at(x, y - 1), ld = luma_at(x, y + 1);
@@ -273,7 +275,8 @@ for (int s0 = 0; s0 < n; s0 += CHUNK) {{
         p2x[j] = wp::add(x2, wp::mul(sx, search_offsets[i2])); p2y[j] = wp::add(y2, wp::mul(sy, search_offsets[i2]));
         end1[j] = e1s[i1]; end2[j] = e2s[i2];
     }}
-    // step 4: the blend offset and the colour there, as 8-bit codes
+    // step 4: the blend offset and the colour there, as 8-bit codes (stored after the
+    // loop: the pixels' scattered byte stores kept it from vectorising)
     #pragma clang loop vectorize(enable)
     for (int j = 0; j < m; ++j) {{
         const bool h = horizontal[j];
@@ -287,12 +290,11 @@ for (int s0 = 0; s0 < n; s0 += CHUNK) {{
         offset = wp::max(offset, sub[j]);
         const float shift = wp::mul(offset, steps[j]);
         const float px = h ? cx : wp::add(cx, shift), py = h ? wp::add(cy, shift) : cy;
-        const int x = list[s0 + j];
-        for (int k = 0; k < 3; ++k) {{
-            const float c = bilinear_code(px, py, k);
-            dst[3 * x + k] = (wp::uint8)(int)wp::add(wp::mul(wp::clamp(c, 0.0f, 1.0f), 255.0f), 0.5f);
-        }}
+        for (int k = 0; k < 3; ++k)
+            rgb[k][j] = (wp::uint8)(int)wp::add(wp::mul(wp::clamp(bilinear_code(px, py, k), 0.0f, 1.0f), 255.0f), 0.5f);
     }}
+    for (int j = 0; j < m; ++j)
+        for (int k = 0; k < 3; ++k) dst[3 * list[s0 + j] + k] = rgb[k][j];
 }}
 """
 )

@@ -14,7 +14,7 @@ clipped polygon where it lies above none, both and a choice per pixel where it i
 mixed), and (4) the sum, or in ``lit_span`` the pixel's radiance: under a dome whose
 light is the same from every direction (``ambient.direction_free``: none, or an
 untextured one) from one irradiance and one radiance for the row; under a textured one
-the SH irradiance at each normal and the lat-long uv each pixel reads vectorised too,
+the SH irradiance at each normal and the lat-long uvs each pixel reads vectorised too,
 only the texel reads (the prefiltered mip chain, the dome behind glass, the background)
 lane by lane; then ``wh_surface_radiance`` with the split-sum ``wh_env_brdf`` across
 pixels again.  The same lambdas as the scalar functions, so the same arithmetic; in
@@ -88,9 +88,11 @@ _LIGHTS_CPP = """
 # Under a direction-free dome (``ambient.direction_free``) one irradiance ``e_free`` and
 # one radiance ``sky`` for every pixel.  Otherwise (a) across pixels, the irradiance at
 # the normal (SH), the dome-local direction the pixel reads (the mirror direction on a
-# surface, the camera ray on the background) and its lat-long uv; (b) lane by lane (the
-# texel reads), the prefiltered radiance at that uv and the lobe's level (the dome's own
-# radiance on the background) and, for glass, the dome straight behind it.  Then (c)
+# surface, the camera ray on the background) and its lat-long uv, and the uv straight
+# behind the surface (what glass lets through; every pixel's, as the loop has no
+# branches); (b) lane by lane (the texel reads), the prefiltered radiance at that uv and
+# the lobe's level (the dome's own radiance on the background) and, for glass, the dome
+# at the uv behind it.  Then (c)
 # across pixels ``shading.shade_surface`` given those (``wh_surface_radiance`` with the
 # split-sum ``wh_env_brdf`` times the looked-up radiance), the dome's radiance where the
 # pixel sees no surface.
@@ -107,6 +109,8 @@ _RADIANCE_CPP = f"""
             ox[j] = d[0]; oy[j] = d[1]; oz[j] = d[2];
             const wp::vec2 uv = wh_environment_uv(d);
             ux[j] = uv[0]; uy[j] = uv[1];
+            const wp::vec2 behind = wh_environment_uv(wp::mul(env.world_to_light, wp::neg(v)));
+            bx[j] = behind[0]; by[j] = behind[1];
         }}
         for (int j = 0; j < n; ++j) {{
             const wp::vec2 uv(ux[j], uy[j]);
@@ -121,7 +125,7 @@ _RADIANCE_CPP = f"""
             sr[j] = s[0]; sg[j] = s[1]; sb[j] = s[2];
             wp::vec3 t(0.0f);
             if (hit[j] && dome && (flags[j] & {int(FLAG_TRANSMISSIVE)}) != 0) {{
-                t = wh_environment_radiance(env, textures, texels, wp::neg(wp::vec3(vx[j], vy[j], vz[j])));
+                t = wh_environment_radiance_at(env, textures, texels, wp::vec2(bx[j], by[j]));
             }}
             tr[j] = t[0]; tg[j] = t[1]; tb[j] = t[2];
         }}
@@ -184,7 +188,7 @@ const wp::vec3 up(0.0f, 0.0f, 1.0f);  // (any direction)
 const wp::vec3 e_free = wh_ambient_irradiance(env, amb, up, true);
 const wp::vec3 sky = wh_environment_radiance(env, textures, texels, up);
 float er[CHUNK], eg[CHUNK], eb[CHUNK], ir[CHUNK], ig[CHUNK], ib[CHUNK], sr[CHUNK], sg[CHUNK], sb[CHUNK];
-float tr[CHUNK], tg[CHUNK], tb[CHUNK], ox[CHUNK], oy[CHUNK], oz[CHUNK], ux[CHUNK], uy[CHUNK];
+float tr[CHUNK], tg[CHUNK], tb[CHUNK], ox[CHUNK], oy[CHUNK], oz[CHUNK], ux[CHUNK], uy[CHUNK], bx[CHUNK], by[CHUNK];
 bool hit[CHUNK];"""
         if lit
         else ""

@@ -9,7 +9,10 @@ synchronised inside the timing):
 * **primary**: one camera ray per pixel centre through Mitsuba's BVH with the full
   surface interaction (position, shading frame, UVs, distance): against this project's
   raster-mode G-buffer stages (``raster + resolve + surface``) and the whole
-  ``--mode raster`` frame, post included.
+  ``--mode raster`` frame, post included.  Every frame of this project is timed as the
+  replay loop and the viewer render it (``render(..., host_copies=False)``): its 8-bit
+  image read back, its linear colour and visibility left on the device, as Mitsuba's
+  surface data are.
 * **shadow**: one shadow ray per pixel per light from the primary hits (toward a
   light's centre, or along a distant light): against ``trace_shadow`` in ``--mode full``.
 * **whitted**: primary, shadows, and one mirror bounce (and its shadows) where the hit's
@@ -173,7 +176,7 @@ def measure_scene(path: str, width: int, height: int, repeats: int, bvh: str = "
             threads = r.launcher.threads
 
             def frame() -> dict[str, float]:
-                f = r.render(camera)
+                f = r.render(camera, host_copies=False)
                 rays[key] = f.stats.get("rays", {})
                 return {**f.stats["stages_ms"], "frame": f.stats["frame_ms"]}
 

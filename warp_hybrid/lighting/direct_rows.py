@@ -92,10 +92,9 @@ _LIGHTS_CPP = """
 # behind the surface (what glass lets through; every pixel's, as the loop has no
 # branches); (b) lane by lane (the texel reads), the prefiltered radiance at that uv and
 # the lobe's level (the dome's own radiance on the background) and, for glass, the dome
-# at the uv behind it.  Then (c)
-# across pixels ``shading.shade_surface`` given those (``wh_surface_radiance`` with the
-# split-sum ``wh_env_brdf`` times the looked-up radiance), the dome's radiance where the
-# pixel sees no surface.
+# at the uv behind it.  Then (c) across pixels ``shading.shade_surface`` given those
+# (``wh_surface_radiance`` with the split-sum ``wh_env_brdf`` times the looked-up
+# radiance), the dome's radiance where the pixel sees no surface.
 _RADIANCE_CPP = f"""
     if (!uniform_dome) {{
         for (int j = 0; j < n; ++j) {{

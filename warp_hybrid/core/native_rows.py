@@ -6,6 +6,8 @@ one row of an array."""
 
 from __future__ import annotations
 
+import numpy as np
+
 #: Pixels a row loop takes at a time on the CPU (its scratch arrays live on the stack).
 CHUNK_CPU = 64
 
@@ -48,8 +50,10 @@ auto wh_normalize = [&](const wp::vec3& a) WH_INLINE -> wp::vec3 {
 
 
 def float_literal(value: float) -> str:
-    """A C++ float32 literal of ``value`` (the nearest float, as Warp's constants round)."""
-    return f"{float(value)!r}f"
+    """A C++ float32 literal of ``value``: the float32 nearest the double, as Warp rounds its
+    constants (``wp::float32(double)``), written exactly in hexadecimal (a decimal with an
+    ``f`` would be rounded from the decimal, which can differ next to a halfway case)."""
+    return f"{float(np.float32(value)).hex()}f"
 
 
 def row_cpp(array: str, row: str, ctype: str, const: bool = True) -> str:

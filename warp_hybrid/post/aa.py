@@ -77,11 +77,6 @@ auto luma_at = [&](int x, int y) WH_INLINE -> float {
 """
 
 
-def _float32_cpp(value: float) -> str:
-    """``value`` rounded to float32, as an exact C++ float literal (hexadecimal)."""
-    return f"{float(np.float32(value)).hex()}f"
-
-
 #: C++ statements: the luma range ``rng`` and maximum ``lmax`` of a pixel's luma ``lc``
 #: and its four neighbours' ``lu, ld, ll, lr`` (step 1).
 _RANGE_CPP = """
@@ -92,7 +87,7 @@ const float rng = lmax - lmin;
 
 #: C++ statements: whether that range passes the contrast test (``edge``, bool).
 _EDGE_TEST_CPP = (
-    f"const bool edge = rng >= wp::max({_float32_cpp(EDGE_THRESHOLD_MIN)}, lmax * {_float32_cpp(EDGE_THRESHOLD)});"
+    f"const bool edge = rng >= wp::max({float_literal(EDGE_THRESHOLD_MIN)}, lmax * {float_literal(EDGE_THRESHOLD)});"
 )
 
 

@@ -226,8 +226,9 @@ class Launcher:
 
     def _map(self, piece: Callable[[int, int], Any], n: int) -> list[Any]:
         """``piece(k, n)`` for k in 0..n-1: piece 0 on the calling thread, the others on
-        the pool (handing a piece to a pool thread and waiting for it costs about 40 us;
-        the caller would only wait).  Every piece runs before any exception propagates."""
+        the pool (handing a piece to a pool thread and waiting for it costs 40-160 us, the
+        threads' wake-ups, more on a virtual machine; the caller would only wait).  Every
+        piece runs before any exception propagates."""
         if n <= 1 or self._pool is None:
             return [piece(k, n) for k in range(n)]
         futures = [self._pool.submit(piece, k, n) for k in range(1, n)]

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 import warp as wp
 
+from warp_hybrid import band_pool, parallel
 from warp_hybrid.parallel import (
     BANDS_PER_THREAD,
     FEW_BANDS_PER_THREAD,
@@ -21,6 +22,17 @@ from warp_hybrid.parallel import (
     group_launch,
     item_group,
 )
+
+
+@pytest.fixture(params=["native", "python"])
+def band_threads(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) -> str:
+    """Which threads run a CPU pass's bands: the native band threads (``band_pool``), or
+    the Python pool (as on a platform without them)."""
+    if request.param == "python":
+        monkeypatch.setattr(parallel, "native_band_pool", lambda device, threads: None)
+    elif not band_pool.layout_matches():
+        pytest.skip("no native band threads on this platform")
+    return request.param
 
 
 @wp.kernel
@@ -45,7 +57,7 @@ def _count_items(out: wp.array(dtype=wp.int32), start: int, step: int):
 @pytest.mark.parametrize("threads", [1, 2, 3])
 @pytest.mark.parametrize(("height", "width"), [(1, 1), (2, 5), (7, 3), (48, 33), (481, 2)])
 def test_launch_pixels_covers_each_pixel_once(
-    device: str, threads: int, height: int, width: int, per_thread: int
+    device: str, band_threads: str, threads: int, height: int, width: int, per_thread: int
 ) -> None:
     out = wp.zeros((height, width), dtype=wp.int32, device=device)
     item_cols = wp.zeros((height, width), dtype=wp.int32, device=device)
@@ -59,7 +71,9 @@ def test_launch_pixels_covers_each_pixel_once(
 
 @pytest.mark.parametrize("threads", [1, 2])
 @pytest.mark.parametrize("rows", [(0, 48), (5, 6), (17, 40), (-3, 9), (30, 99), (20, 20)])
-def test_launch_pixels_covers_only_the_rows_asked(device: str, threads: int, rows: tuple[int, int]) -> None:
+def test_launch_pixels_covers_only_the_rows_asked(
+    device: str, band_threads: str, threads: int, rows: tuple[int, int]
+) -> None:
     height, width = 48, 9
     out = wp.zeros((height, width), dtype=wp.int32, device=device)
     item_cols = wp.zeros((height, width), dtype=wp.int32, device=device)
@@ -80,7 +94,7 @@ def test_launch_pixels_skips_empty_images(device: str) -> None:
 
 @pytest.mark.parametrize("threads", [1, 2, 3])
 @pytest.mark.parametrize("count", [1, 5, 100, 9001])
-def test_launch_items_covers_each_item_once(device: str, threads: int, count: int) -> None:
+def test_launch_items_covers_each_item_once(device: str, band_threads: str, threads: int, count: int) -> None:
     out = wp.zeros(count, dtype=wp.int32, device=device)
     with Launcher(device, threads) as launcher:
         launcher.launch_items(_count_items, count, [out])
@@ -100,7 +114,9 @@ def _count_grouped_items(
 
 @pytest.mark.parametrize("threads", [1, 2, 3])
 @pytest.mark.parametrize("count", [1, 15, 16, 17, 100, 9001])
-def test_launch_groups_covers_each_item_once_in_groups(device: str, threads: int, count: int) -> None:
+def test_launch_groups_covers_each_item_once_in_groups(
+    device: str, band_threads: str, threads: int, count: int
+) -> None:
     """Every item once; on the CPU consecutive items share a launch item, at most
     ``ITEM_GROUP`` of them (a band's last group may be short), on CUDA one each."""
     out = wp.zeros(count, dtype=wp.int32, device=device)
@@ -136,7 +152,9 @@ def _count_into_slots(
 
 @pytest.mark.parametrize("threads", [1, 2, 3])
 @pytest.mark.parametrize("count", [1, 17, 9001, 200_000])
-def test_launch_slots_counts_each_item_once_into_a_thread_slot(device: str, threads: int, count: int) -> None:
+def test_launch_slots_counts_each_item_once_into_a_thread_slot(
+    device: str, band_threads: str, threads: int, count: int
+) -> None:
     """Every item lands once, in one slot of the threads' (slot 0 alone on CUDA), and
     the slots add up to the items."""
     sums = wp.zeros(threads, dtype=wp.int32, device=device)
@@ -165,13 +183,14 @@ def _mark_items(out: wp.array(dtype=wp.int32), mark: int, start: int, step: int)
     out[start + wp.tid() * step] = mark
 
 
-def _counting_launches(monkeypatch: pytest.MonkeyPatch) -> list[bool]:
-    """Make every ``wp.launch`` call append whether it only recorded the launch."""
+def _counting_launches(monkeypatch: pytest.MonkeyPatch, kernel: wp.Kernel) -> list[bool]:
+    """Make every ``wp.launch`` call of ``kernel`` append whether it only recorded the launch."""
     calls: list[bool] = []
     real = wp.launch
 
     def launch(*args, **kwargs):
-        calls.append(bool(kwargs.get("record_cmd", False)))
+        if (args[0] if args else kwargs["kernel"]) is kernel:
+            calls.append(bool(kwargs.get("record_cmd", False)))
         return real(*args, **kwargs)
 
     monkeypatch.setattr(wp, "launch", launch)
@@ -179,13 +198,15 @@ def _counting_launches(monkeypatch: pytest.MonkeyPatch) -> list[bool]:
 
 
 @pytest.mark.parametrize("threads", [1, 2, 3])
-def test_a_pass_packs_its_arguments_once_per_thread(device: str, threads: int, monkeypatch: pytest.MonkeyPatch) -> None:
+def test_a_pass_packs_its_arguments_once_per_thread(
+    device: str, band_threads: str, threads: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
     """The bands of a pass reuse one recorded launch per thread: each band runs with its
     own start and size (every item once), and the arguments are packed by as many
     ``wp.launch`` calls as threads took bands, however many bands there are."""
     count = 9001
     out = wp.zeros(count, dtype=wp.int32, device=device)
-    calls = _counting_launches(monkeypatch)
+    calls = _counting_launches(monkeypatch, _count_items)
     with Launcher(device, threads) as launcher:
         launcher.launch_items(_count_items, count, [out])
     np.testing.assert_array_equal(out.numpy(), np.ones(count, np.int32))
@@ -277,7 +298,7 @@ def test_a_free_thread_takes_the_bands_a_busy_one_cannot() -> None:
     lock = threading.Lock()
     others_done = threading.Event()
 
-    def launch_band(k: int, n: int, slot: int) -> None:
+    def launch_band(k: int, slot: int) -> None:
         if slot == 0:
             assert others_done.wait(timeout=30.0)
         with lock:
@@ -286,7 +307,7 @@ def test_a_free_thread_takes_the_bands_a_busy_one_cannot() -> None:
                 others_done.set()
 
     with Launcher("cpu", 2) as launcher:
-        launcher.share(launch_band, bands)
+        launcher.share_until(launch_band, bands)
     assert sorted(k for k, _ in ran) == list(range(bands))
     assert sum(1 for _, slot in ran if slot == 0) <= 1
 
@@ -328,7 +349,7 @@ def test_run_takes_piece_zero_on_the_calling_thread() -> None:
     assert sorted(finished) == [1, 2]
 
 
-def test_a_launch_profile_times_every_piece_by_kernel(device: str) -> None:
+def test_a_launch_profile_times_every_piece_by_kernel(device: str, band_threads: str) -> None:
     """Attached, the profile counts each launch once and times each of its pieces (one
     per thread) under the kernel's name, and ``run`` pieces under theirs; detached, it
     records nothing more."""
@@ -407,3 +428,17 @@ def test_cost_bands_start_again_for_another_range() -> None:
     bands.measured(spans, [9.0, 1.0, 1.0, 1.0])
     assert bands.spans(100, 4) != spans
     assert bands.spans(120, 4) == [band(k, 4, 120) for k in range(4)]
+
+
+def test_launch_bands_runs_each_band_once_and_times_it(band_threads: str) -> None:
+    """The bands of one pass, each over its own items (sizes differing, one empty), run
+    once each; timed, each band's thread CPU seconds come back in band order."""
+    count = 5000
+    out = wp.zeros(count, dtype=wp.int32, device="cpu")
+    spans = [(0, 1), (1, 0), (1, 999), (1000, 4000)]
+    with Launcher("cpu", 2) as launcher:
+        costs = launcher.launch_bands(_count_items, [out], [(items, (first, 1)) for first, items in spans], timed=True)
+        assert launcher.launch_bands(_count_items, [out], [(count, (0, 1))]) is None
+    np.testing.assert_array_equal(out.numpy(), np.full(count, 2, np.int32))
+    assert costs is not None and len(costs) == len(spans)
+    assert all(c >= 0.0 for c in costs) and costs[3] > 0.0

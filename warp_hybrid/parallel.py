@@ -13,6 +13,13 @@ was slowed (a costlier part of the image, another process on its core) simply ta
 fewer bands, and neighbouring rows stay on one thread (the texels they share stay in
 its cache).  On CUDA the same kernel source runs one thread per pixel or item.
 
+Where the platform allows (``band_pool.native_band_pool``: POSIX, Warp's launch bounds as
+expected) a pass's bands (``Launcher.launch_bands``) run on native band threads that stay
+in native code between passes, so a pass costs neither a thread's wake-up nor Python per
+band; elsewhere, and for passes with a Python step per band (the tracer's, which asks
+its deadline before each band: ``share_until``) or Python pieces (``run``), they run on
+a pool of Python threads.
+
 Passes whose writes could collide (the visibility buffer) use ``Launcher.run`` with
 one output buffer per piece and merge them afterwards.  ``Launcher.profile`` (a
 ``launch_profile.LaunchProfile``, None by default) times every band by kernel and by
@@ -31,6 +38,7 @@ from typing import Any
 import numpy as np
 import warp as wp
 
+from .band_pool import BAND_COLUMNS, COL_CPU_NS, COL_SLOT, COL_WALL_NS, PackedKernel, native_band_pool
 from .launch_profile import LaunchProfile
 
 # Bands per thread in a CPU pass, and the fewest rows / items a band holds (a launch
@@ -189,6 +197,7 @@ class Launcher:
         self.device = wp.get_device(device)
         self.threads = threads if threads is not None else default_thread_count(self.device)
         self._pool = ThreadPoolExecutor(max_workers=self.threads - 1) if self.threads > 1 else None
+        self._bands = native_band_pool(self.device, self.threads)
         self._loaded: set[int] = set()
         self.profile: LaunchProfile | None = None
 
@@ -197,6 +206,9 @@ class Launcher:
         if self._pool is not None:
             self._pool.shutdown(wait=True)
             self._pool = None
+        if self._bands is not None:
+            self._bands.close()
+            self._bands = None
 
     def __enter__(self) -> Launcher:
         return self
@@ -231,6 +243,8 @@ class Launcher:
         piece runs before any exception propagates."""
         if n <= 1 or self._pool is None:
             return [piece(k, n) for k in range(n)]
+        if self._bands is not None:
+            self._bands.nap()  # the pool threads need the cores the band threads spin on
         futures = [self._pool.submit(piece, k, n) for k in range(1, n)]
         try:
             first = piece(0, n)
@@ -267,13 +281,9 @@ class Launcher:
             self.launch(kernel, 0, (count, width), [*inputs, first, 1, 1])
             return
 
-        run = BandLaunch(self, kernel, inputs)
-
-        def launch_band(k: int, bands: int, slot: int) -> None:
-            row0, band_rows = band(k, bands, count)
-            run(slot, (band_rows, 1), (first + row0, 1, width), k == 0)
-
-        self.share(launch_band, band_count(count, self.threads, MIN_BAND_ROWS, bands_per_thread))
+        bands = band_count(count, self.threads, MIN_BAND_ROWS, bands_per_thread)
+        spans = [band(k, bands, count) for k in range(bands)]
+        self.launch_bands(kernel, inputs, [((rows, 1), (first + row0, 1, width)) for row0, rows in spans])
 
     def launch_items(
         self, kernel: wp.Kernel, count: int, inputs: Sequence[Any], min_band_items: int = MIN_BAND_ITEMS
@@ -291,13 +301,9 @@ class Launcher:
             self.launch(kernel, 0, count, [*inputs, 0, 1])
             return
 
-        run = BandLaunch(self, kernel, inputs)
-
-        def launch_band(k: int, bands: int, slot: int) -> None:
-            start, items = band(k, bands, count)
-            run(slot, items, (start, 1), k == 0)
-
-        self.share(launch_band, band_count(count, self.threads, min_band_items))
+        bands = band_count(count, self.threads, min_band_items)
+        spans = [band(k, bands, count) for k in range(bands)]
+        self.launch_bands(kernel, inputs, [(items, (start, 1)) for start, items in spans])
 
     def launch_groups(
         self, kernel: wp.Kernel, count: int, inputs: Sequence[Any], min_band_items: int = MIN_BAND_ITEMS
@@ -336,19 +342,72 @@ class Launcher:
             self.launch(kernel, 0, dim, [*inputs, *((0,) if slotted else ()), *tail])
             return
 
+        bands = band_count(count, self.threads, min_band_items)
+        spans = [group_launch(*band(k, bands, count), group) for k in range(bands)]
+        # a slotted band adds into the slot of the thread that runs it: a leading input per thread
+        self.launch_bands(kernel, (lambda slot: [*inputs, slot]) if slotted else inputs, spans)
+
+    def launch_bands(
+        self,
+        kernel: wp.Kernel,
+        inputs: Sequence[Any] | Callable[[int], Sequence[Any]],
+        bands: Sequence[tuple[Any, Sequence[int]]],
+        timed: bool = False,
+    ) -> list[float] | None:
+        """Run one CPU pass of ``kernel`` cut into ``bands``: band k launches over dimension
+        ``bands[k][0]`` (an int, or a tuple of one or two) with inputs ``[*inputs,
+        *bands[k][1]]`` (``inputs``: the same for every band, or a callable giving them
+        per thread slot; the trailing integers int32), each thread taking the next band
+        left.  The bands run on native band threads (``band_pool``) where this platform
+        has them, else on the Python pool (``share_until``).  Returns each band's thread
+        CPU seconds with ``timed``, else None."""
+        if not bands:
+            return [] if timed else None
+        self.ensure_loaded(kernel)
+        if self._bands is not None:
+            return self._native_bands(kernel, inputs, bands, timed)
         run = BandLaunch(self, kernel, inputs)
+        costs = [0.0] * len(bands)
 
-        def launch_band(k: int, bands: int, slot: int) -> None:
-            dim, tail = group_launch(*band(k, bands, count), group)
-            run(slot, dim, (slot, *tail) if slotted else tail, k == 0)
+        def job(k: int, slot: int) -> None:
+            dim, tail = bands[k]
+            start = time.thread_time() if timed else 0.0
+            run(slot, dim, tail, k == 0)
+            if timed:
+                costs[k] = time.thread_time() - start
 
-        self.share(launch_band, band_count(count, self.threads, min_band_items))
+        self.share_until(job, len(bands))
+        return costs if timed else None
 
-    def share(self, launch_band: Callable[[int, int, int], None], bands: int) -> None:
-        """Run ``launch_band(k, bands, slot)`` for every band k, each thread (``slot``,
-        0 .. threads - 1) taking the next band left until none is (``share_until`` with
-        no stop); a pass that accumulates per thread writes to its ``slot``."""
-        self.share_until(lambda k, slot: launch_band(k, bands, slot), bands)
+    def _native_bands(
+        self,
+        kernel: wp.Kernel,
+        inputs: Sequence[Any] | Callable[[int], Sequence[Any]],
+        bands: Sequence[tuple[Any, Sequence[int]]],
+        timed: bool,
+    ) -> list[float] | None:
+        """``launch_bands`` on the native band threads: each thread's argument block packed
+        once, the bands' dimensions and trailing integers in one table."""
+        pool = self._bands
+        tail = len(bands[0][1])
+        if callable(inputs):
+            blocks = [PackedKernel.pack(kernel, self.device, inputs(slot), tail) for slot in range(self.threads)]
+        else:
+            block = PackedKernel.pack(kernel, self.device, inputs, tail)
+            blocks = [block, *(block.copy() for _ in range(1, self.threads))]
+        table = np.zeros((len(bands), BAND_COLUMNS), dtype=np.int64)
+        for k, (dim, ints) in enumerate(bands):
+            extents = (dim,) if isinstance(dim, int) else tuple(dim)
+            table[k, : len(extents)] = extents
+            if len(extents) == 1:
+                table[k, 1] = 1
+            table[k, 2 : 2 + tail] = ints
+        profile = self.profile
+        pool.run(blocks, table, timed=timed or profile is not None)
+        if profile is not None:
+            for k, row in enumerate(table.tolist()):
+                profile.record(kernel.key, row[COL_SLOT], row[COL_WALL_NS] * 1e-9, row[COL_CPU_NS] * 1e-9, k == 0)
+        return (table[:, COL_CPU_NS] * 1e-9).tolist() if timed else None
 
     def share_until(
         self, job: Callable[[int, int], None], bands: int, proceed: Callable[[int], bool] | None = None

@@ -87,6 +87,21 @@ def camera_points_kernel(
 
 
 @wp.kernel
+def clear_keys_kernel(
+    keys: wp.array3d(dtype=wp.uint64), value: wp.uint64, top: int, rows: int, row0: int, row_step: int, cols: int
+):
+    """Set rows ``top`` .. ``top + rows`` of every slice of ``keys`` to ``value``: launch
+    item (r, c) (``parallel.Launcher.launch_pixels`` over ``slices * rows`` rows) takes
+    row ``row0 + r * row_step`` of the slices' rows laid end to end."""
+    r, c = wp.tid()
+    v = row0 + r * row_step
+    k = v // rows
+    y = top + v - k * rows
+    for x in range(c * cols, wp.min(c * cols + cols, keys.shape[2])):
+        keys[k, y, x] = value
+
+
+@wp.kernel
 def cluster_bounds_kernel(scene: SceneGPU, triangles: int, bounds: wp.array2d(dtype=wp.vec3), start: int, step: int):
     """Clusters start, start + step, ...: the (lower, upper) corners of the bounding box
     of their triangles' points into ``bounds[cluster]``."""

@@ -24,7 +24,6 @@
 
 from __future__ import annotations
 
-import time
 import weakref
 
 import numpy as np
@@ -33,7 +32,7 @@ import warp as wp
 from ..core.camera import CameraGPU
 from ..core.gbuffer import GBuffer
 from ..core.rows import RowSpan
-from ..parallel import BandLaunch, CostBands, Launcher, band, band_count
+from ..parallel import CostBands, Launcher, band, band_count
 from ..scene.device import DeviceScene
 from ..timing import StageTimer
 from . import kernels
@@ -126,7 +125,7 @@ class Rasterizer(PrimaryVisibility):
         launcher.ensure_loaded(kernels.coverage_kernel)
         count = scene.scene.triangle_count
         pts = self._transform_points(scene, camera)
-        threads, height = keys.shape[0], keys.shape[1]
+        threads, height, width = keys.shape
         top, bottom = (0, height) if rows is None else rows
         bounds = self._cluster_bounds(scene) if count > 0 else None
         clusters = bounds.shape[0] if bounds is not None else 0
@@ -152,21 +151,13 @@ class Rasterizer(PrimaryVisibility):
             launcher.run(clear_and_cover_rows, threads)
             return 1
 
-        def clear_slice(k: int, _n: int) -> None:
-            keys[k, top:bottom].fill_(clear)
-
-        launcher.run(clear_slice, threads)
-        run = BandLaunch(launcher, kernels.coverage_kernel, inputs)
+        launcher.launch_pixels(
+            kernels.clear_keys_kernel, threads * (bottom - top), width, [keys, wp.uint64(clear), top, bottom - top]
+        )
         spans = self._cluster_bands.spans(clusters, band_count(clusters, threads, MIN_BAND_CLUSTERS))
-        costs = [0.0] * len(spans)
-
-        def cover_band(k: int, _bands: int, slot: int) -> None:
-            first, size = spans[k]
-            start = time.thread_time()
-            run(slot, size, (first, 1), k == 0)
-            costs[k] = time.thread_time() - start
-
-        launcher.share(cover_band, len(spans))
+        costs = launcher.launch_bands(
+            kernels.coverage_kernel, inputs, [(size, (first, 1)) for first, size in spans], timed=True
+        )
         if mode == MODE_DEPTH:
             self._cluster_bands.measured(spans, costs)
         return threads

@@ -1,0 +1,159 @@
+"""Native band threads: every band of a pass runs once, on whichever thread takes it, with
+its own dimension and trailing integers; helper threads take part at once, after they
+slept and after a nap; closing stops them."""
+
+from __future__ import annotations
+
+import threading
+import time
+
+import numpy as np
+import pytest
+import warp as wp
+
+from warp_hybrid import band_pool
+from warp_hybrid.band_pool import (
+    BAND_COLUMNS,
+    COL_CPU_NS,
+    COL_SLOT,
+    COL_WALL_NS,
+    BandPool,
+    PackedKernel,
+    layout_matches,
+)
+
+pytestmark = pytest.mark.skipif(not layout_matches(), reason="no native band threads on this platform")
+
+
+@wp.kernel
+def _mark_rows(out: wp.array2d(dtype=wp.int32), mark: int, row0: int, row_step: int, cols: int):
+    """Add ``mark`` to each pixel of row ``row0 + r * row_step``, columns up to ``cols``."""
+    r, c = wp.tid()
+    y = row0 + r * row_step
+    for x in range(c * cols, wp.min(c * cols + cols, out.shape[1])):
+        out[y, x] = out[y, x] + mark
+
+
+@wp.func_native(
+    """
+int* f = (int*)flags.data;
+__atomic_store_n(&f[me], 1, __ATOMIC_SEQ_CST);
+for (long long i = 0; i < 4000000000LL; ++i) {
+    if (__atomic_load_n(&f[other], __ATOMIC_SEQ_CST)) return 1;
+}
+return 0;
+"""
+)
+def _meet(flags: wp.array(dtype=wp.int32), me: int, other: int) -> int: ...
+
+
+@wp.kernel
+def _rendezvous(flags: wp.array(dtype=wp.int32), met: wp.array(dtype=wp.int32), me: int):
+    """Raise this band's flag, then wait (a few seconds at most) for the other band's:
+    ``met[me]`` is 1 when both bands ran at the same time."""
+    met[me] = _meet(flags, me, 1 - me)
+
+
+@wp.kernel
+def _trailing_float(out: wp.array(dtype=wp.float32), scale: float):
+    out[wp.tid()] = scale
+
+
+def _bands(rows: list[tuple[int, int]], mark: int, width: int) -> np.ndarray:
+    """The band table of ``_mark_rows`` over the (first, count) row spans."""
+    table = np.zeros((len(rows), BAND_COLUMNS), dtype=np.int64)
+    for k, (first, count) in enumerate(rows):
+        table[k, :5] = (count, 1, first, 1, width)
+    return table
+
+
+def _blocks(kernel: wp.Kernel, inputs: list, tail: int, threads: int) -> list[PackedKernel]:
+    block = PackedKernel.pack(kernel, wp.get_device("cpu"), inputs, tail)
+    return [block, *(block.copy() for _ in range(1, threads))]
+
+
+@pytest.mark.parametrize("threads", [2, 3])
+def test_every_band_runs_once_with_its_own_dimension_and_integers(threads: int) -> None:
+    """Bands of different sizes (one empty) each cover their own rows once; each row of
+    the table gets the thread that ran it and, timed, its wall and CPU time."""
+    height, width = 61, 7
+    out = wp.zeros((height, width), dtype=wp.int32, device="cpu")
+    wp.load_module(_mark_rows.module, device="cpu")
+    spans = [(0, 1), (1, 20), (21, 0), (21, 3), *((24 + 4 * k, 4) for k in range(9)), (60, 1)]
+    with BandPool(wp.get_device("cpu"), threads) as pool:
+        for _ in range(3):  # the board is reused pass after pass
+            table = _bands(spans, 1, width)
+            pool.run(_blocks(_mark_rows, [out, 1], 3, threads), table, timed=True)
+            assert set(table[:, COL_SLOT]) <= set(range(threads))
+            assert (table[:, COL_WALL_NS] >= 0).all() and (table[:, COL_CPU_NS] >= 0).all()
+    np.testing.assert_array_equal(out.numpy(), np.full((height, width), 3, np.int32))
+
+
+def _meet_in_one_pass(pool: BandPool) -> tuple[np.ndarray, np.ndarray]:
+    """Run the two ``_rendezvous`` bands as one pass: (met, the slots that ran them)."""
+    flags = wp.zeros(2, dtype=wp.int32, device="cpu")
+    met = wp.zeros(2, dtype=wp.int32, device="cpu")
+    wp.load_module(_rendezvous.module, device="cpu")
+    table = np.zeros((2, BAND_COLUMNS), dtype=np.int64)
+    table[:, :2] = 1
+    table[:, 2] = (0, 1)
+    pool.run(_blocks(_rendezvous, [flags, met], 1, pool.threads), table)
+    return met.numpy(), table[:, COL_SLOT]
+
+
+@pytest.mark.parametrize("spin_ns", [0, 60_000_000_000])
+def test_a_helper_takes_part_whether_it_spun_or_slept(spin_ns: int) -> None:
+    """Two bands that each wait for the other finish only if two threads run them at
+    once: the helper takes one, when it is still spinning after the last pass and when
+    it went to sleep at once (a posted pass wakes it)."""
+    with BandPool(wp.get_device("cpu"), 2, spin_ns=spin_ns) as pool:
+        for _ in range(3):
+            met, slots = _meet_in_one_pass(pool)
+            np.testing.assert_array_equal(met, [1, 1])
+            assert sorted(slots) == [0, 1]
+            time.sleep(0.02)
+
+
+def test_a_nap_puts_the_helpers_to_sleep_and_a_pass_wakes_them() -> None:
+    """With an hour to spin, helpers stay awake after a pass; told to nap, all of them
+    sleep; the next pass still has them take part."""
+    with BandPool(wp.get_device("cpu"), 3, spin_ns=3_600_000_000_000) as pool:
+        _meet_in_one_pass(pool)
+        time.sleep(0.05)
+        assert pool.sleepers == 0
+        pool.nap()
+        deadline = time.monotonic() + 30.0
+        while pool.sleepers < 2 and time.monotonic() < deadline:
+            time.sleep(0.001)
+        assert pool.sleepers == 2
+        met, slots = _meet_in_one_pass(pool)
+        np.testing.assert_array_equal(met, [1, 1])
+        assert len(set(slots)) == 2
+
+
+def test_closing_stops_the_helpers() -> None:
+    def helpers() -> set[threading.Thread]:
+        return {t for t in threading.enumerate() if t.name.startswith("warp-hybrid-band-")}
+
+    before = helpers()
+    pool = BandPool(wp.get_device("cpu"), 3)
+    started = helpers() - before
+    assert len(started) == 2
+    pool.close()
+    pool.close()  # idempotent
+    assert not any(t.is_alive() for t in started)
+
+
+def test_a_trailing_input_must_be_int32() -> None:
+    out = wp.zeros(4, dtype=wp.float32, device="cpu")
+    wp.load_module(_trailing_float.module, device="cpu")
+    with pytest.raises(TypeError, match="scale is c_float, not int32"):
+        PackedKernel.pack(_trailing_float, wp.get_device("cpu"), [out], 1)
+
+
+def test_the_board_holds_bands_up_to_its_limit() -> None:
+    with BandPool(wp.get_device("cpu"), 2) as pool:
+        with pytest.raises(ValueError, match="bands"):
+            pool.run([], np.zeros((band_pool.MAX_BANDS + 1, BAND_COLUMNS), dtype=np.int64))
+        with pytest.raises(ValueError, match="threads"):
+            BandPool(wp.get_device("cpu"), band_pool.MAX_THREADS + 1)

@@ -1,0 +1,428 @@
+"""Native band threads: the bands of a CPU pass run by threads that stay in native code.
+
+A CPU pass is cut into bands (``parallel``), each band one call of the kernel's compiled
+entry point ``forward(&bounds, &args)`` with its own dimension and trailing integers.
+Handing bands to Python threads costs, per pass, a thread's wake-up (40-160 us, more on a
+virtual machine) and, per band, ~15 us of Python taken in turns under the GIL.  Here the
+helper threads never come back to Python while they have work: each sits in a native
+loop (a one-item Warp kernel, ``_worker_kernel``) that watches a shared *board* and takes
+bands as they are posted, spinning for a short while after the last one, then sleeping
+on a condition variable.  The caller posts a pass (``BandPool.run``: one more native call
+with the GIL released), takes bands itself and returns once every band is done.
+
+The board (an int64 Warp array) holds one pass at a time:
+
+- ``TICKET``: the pass number (24 bits), its band count (20 bits) and the next band
+  not yet taken (20 bits) in one word, so a thread takes band k by one compare-and-swap
+  and a thread that read an older pass's fields fails its swap (the caller rewrites the
+  fields only when every band of the last pass is done, and bumps the pass number when
+  it posts);
+- ``DONE``: bands finished; the caller waits until it equals the band count;
+- the pass's fields: the kernel's entry point, each thread's argument block (a packed
+  ``ctypes`` structure the thread alone writes its band's trailing integers into), the
+  trailing integers' byte offsets, and the band table (``BAND_COLUMNS`` int64 per band:
+  its launch dimension, its trailing integers and, written back, the thread that ran it
+  and its wall and thread CPU nanoseconds).
+
+The layouts this relies on are Warp's: a CPU kernel's ``forward(launch_bounds_t*,
+wp_args*)`` (its arguments packed in order, as ``warp.context.invoke`` packs them) and a
+one- or two-dimensional ``launch_bounds_t`` (two uint32 extents, then size and
+coord_mult as size_t); ``layout_matches`` checks the latter against Warp's own
+``ctypes`` definition, and ``parallel.Launcher`` falls back to Python threads where it
+does not hold (or off POSIX: the sleep uses pthreads).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import os
+import threading
+import time
+import weakref
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+import warp as wp
+
+# the board's slots (int64 each)
+TICKET, DONE, SLEEPERS, QUIT, NAP, FN, BANDS, TAILS, TIMED, SPIN_NS = range(10)
+TAIL_OFFSETS = 10  # .. + MAX_TAIL
+MAX_TAIL = 4
+ARGS = TAIL_OFFSETS + MAX_TAIL  # .. + MAX_THREADS: each thread's argument block
+MAX_THREADS = 16
+MUTEX, COND, LOCK_FN, UNLOCK_FN, WAIT_FN, BROADCAST_FN, CLOCK_FN, CLOCK_WALL, CLOCK_CPU = range(
+    ARGS + MAX_THREADS, ARGS + MAX_THREADS + 9
+)
+BOARD_SIZE = CLOCK_CPU + 1
+
+# a band's row in the band table: dim0, dim1, the trailing integers, then (written back)
+# the thread that ran it and its wall and thread CPU ns
+BAND_COLUMNS = 2 + MAX_TAIL + 3
+COL_SLOT, COL_WALL_NS, COL_CPU_NS = 2 + MAX_TAIL, 2 + MAX_TAIL + 1, 2 + MAX_TAIL + 2
+
+# bits of TICKET: pass number | band count | next band
+BAND_BITS = 20
+MAX_BANDS = (1 << BAND_BITS) - 1
+
+# how long a helper thread spins after its last band before it sleeps (the gaps between
+# a frame's passes are the caller's Python, tens to hundreds of microseconds)
+SPIN_NS_DEFAULT = 2_000_000
+
+_BOARD_CPP = f"""
+#if defined(__CUDA_ARCH__)
+return 0;
+#else
+#if defined(__x86_64__) || defined(__i386__)
+#define WH_PAUSE() __builtin_ia32_pause()
+#elif defined(__aarch64__)
+#define WH_PAUSE() __asm__ __volatile__("yield")
+#else
+#define WH_PAUSE()
+#endif
+long long* b = (long long*)board.data;
+struct Bounds {{ unsigned int shape[2]; unsigned long long size; unsigned long long coord_mult; }};
+struct TimeSpec {{ long long sec; long long nsec; }};
+typedef void (*Forward)(void*, void*);
+typedef wp::int32 (*PthreadFn)(void*);
+typedef wp::int32 (*WaitFn)(void*, void*);
+typedef wp::int32 (*ClockFn)(long long, TimeSpec*);
+const ClockFn clock_fn = (ClockFn)b[{CLOCK_FN}];
+auto now_ns = [&](long long clock) -> long long {{
+    TimeSpec ts;
+    clock_fn(clock, &ts);
+    return ts.sec * 1000000000LL + ts.nsec;
+}};
+auto load = [&](int i) -> long long {{ return __atomic_load_n(&b[i], __ATOMIC_SEQ_CST); }};
+const unsigned long long mask = {MAX_BANDS}ULL;
+// Take the next band of the posted pass and run it: false when none is left (true after a
+// lost race too: try again).
+auto take = [&](int slot) -> bool {{
+    unsigned long long t = (unsigned long long)load({TICKET});
+    const long long n = (long long)((t >> {BAND_BITS}) & mask);
+    const long long k = (long long)(t & mask);
+    if (k >= n) return false;
+    const Forward fn = (Forward)__atomic_load_n(&b[{FN}], __ATOMIC_RELAXED);
+    long long* const row = (long long*)__atomic_load_n(&b[{BANDS}], __ATOMIC_RELAXED) + k * {BAND_COLUMNS};
+    char* const args = (char*)__atomic_load_n(&b[{ARGS} + slot], __ATOMIC_RELAXED);
+    const long long tails = __atomic_load_n(&b[{TAILS}], __ATOMIC_RELAXED);
+    const long long timed = __atomic_load_n(&b[{TIMED}], __ATOMIC_RELAXED);
+    long long offsets[{MAX_TAIL}];
+    for (int i = 0; i < {MAX_TAIL}; ++i) offsets[i] = __atomic_load_n(&b[{TAIL_OFFSETS} + i], __ATOMIC_RELAXED);
+    __atomic_thread_fence(__ATOMIC_SEQ_CST);
+    if (!__atomic_compare_exchange_n((unsigned long long*)&b[{TICKET}], &t, t + 1, false, __ATOMIC_SEQ_CST,
+                                     __ATOMIC_SEQ_CST))
+        return true;
+    // band k of this pass is ours: its fields stay put until every band is done
+    for (int i = 0; i < tails; ++i) *(int*)(args + offsets[i]) = (int)row[2 + i];
+    Bounds bounds;
+    bounds.shape[0] = (unsigned int)row[0];
+    bounds.shape[1] = (unsigned int)row[1];
+    bounds.size = (unsigned long long)row[0] * (unsigned long long)row[1];
+    bounds.coord_mult = 1;
+    long long wall = 0, cpu = 0;
+    if (timed) {{ wall = now_ns(b[{CLOCK_WALL}]); cpu = now_ns(b[{CLOCK_CPU}]); }}
+    if (bounds.size > 0) fn(&bounds, args);
+    if (timed) {{
+        row[{COL_WALL_NS}] = now_ns(b[{CLOCK_WALL}]) - wall;
+        row[{COL_CPU_NS}] = now_ns(b[{CLOCK_CPU}]) - cpu;
+    }}
+    row[{COL_SLOT}] = slot;
+    __atomic_fetch_add(&b[{DONE}], 1, __ATOMIC_SEQ_CST);
+    return true;
+}};
+auto has_work = [&]() -> bool {{
+    const unsigned long long t = (unsigned long long)load({TICKET});
+    return (t & mask) < ((t >> {BAND_BITS}) & mask);
+}};
+"""
+
+_WORKER_CPP = (
+    _BOARD_CPP
+    + f"""
+void* const mutex = (void*)b[{MUTEX}];
+void* const cond = (void*)b[{COND}];
+const PthreadFn lock = (PthreadFn)b[{LOCK_FN}];
+const PthreadFn unlock = (PthreadFn)b[{UNLOCK_FN}];
+const WaitFn wait = (WaitFn)b[{WAIT_FN}];
+long long idle_since = now_ns(b[{CLOCK_WALL}]);
+for (int spins = 0;; ++spins) {{
+    if (load({QUIT})) return 0;
+    if (take(slot)) {{
+        spins = 0;
+        idle_since = now_ns(b[{CLOCK_WALL}]);
+        continue;
+    }}
+    WH_PAUSE();
+    if ((spins & 255) != 255) continue;
+    if (!load({NAP}) && now_ns(b[{CLOCK_WALL}]) - idle_since < b[{SPIN_NS}]) continue;
+    // long idle, or told to nap: sleep until a pass is posted (the caller wakes the
+    // sleepers after it posts)
+    lock(mutex);
+    __atomic_fetch_add(&b[{SLEEPERS}], 1, __ATOMIC_SEQ_CST);
+    while (!has_work() && !load({QUIT})) wait(cond, mutex);
+    __atomic_fetch_sub(&b[{SLEEPERS}], 1, __ATOMIC_SEQ_CST);
+    unlock(mutex);
+    idle_since = now_ns(b[{CLOCK_WALL}]);
+}}
+#endif
+"""
+)
+
+_RUN_CPP = (
+    _BOARD_CPP
+    + f"""
+__atomic_store_n(&b[{DONE}], 0, __ATOMIC_SEQ_CST);
+__atomic_store_n(&b[{NAP}], 0, __ATOMIC_SEQ_CST);
+const unsigned long long last = (unsigned long long)load({TICKET});
+const unsigned long long pass = ((last >> {2 * BAND_BITS}) + 1) & 0xFFFFFFULL;
+__atomic_store_n((unsigned long long*)&b[{TICKET}], (pass << {2 * BAND_BITS}) | ((unsigned long long)bands << {BAND_BITS}),
+                 __ATOMIC_SEQ_CST);
+if (load({SLEEPERS}) > 0) {{
+    ((PthreadFn)b[{LOCK_FN}])((void*)b[{MUTEX}]);
+    ((PthreadFn)b[{BROADCAST_FN}])((void*)b[{COND}]);
+    ((PthreadFn)b[{UNLOCK_FN}])((void*)b[{MUTEX}]);
+}}
+while (take(0)) {{}}
+while (load({DONE}) < bands) WH_PAUSE();
+return 0;
+#endif
+"""
+)
+
+_WAKE_CPP = f"""
+#if defined(__CUDA_ARCH__)
+return 0;
+#else
+long long* b = (long long*)board.data;
+typedef wp::int32 (*PthreadFn)(void*);
+__atomic_store_n(&b[{QUIT}], 1, __ATOMIC_SEQ_CST);
+((PthreadFn)b[{LOCK_FN}])((void*)b[{MUTEX}]);
+((PthreadFn)b[{BROADCAST_FN}])((void*)b[{COND}]);
+((PthreadFn)b[{UNLOCK_FN}])((void*)b[{MUTEX}]);
+return 0;
+#endif
+"""
+
+
+@wp.func_native(_WORKER_CPP)
+def _worker_loop(board: wp.array(dtype=wp.int64), slot: int) -> int: ...
+
+
+@wp.func_native(_RUN_CPP)
+def _run_pass(board: wp.array(dtype=wp.int64), bands: int) -> int: ...
+
+
+@wp.func_native(_WAKE_CPP)
+def _quit_workers(board: wp.array(dtype=wp.int64)) -> int: ...
+
+
+@wp.kernel
+def _worker_kernel(board: wp.array(dtype=wp.int64), slot: int):
+    _worker_loop(board, slot)
+
+
+@wp.kernel
+def _run_kernel(board: wp.array(dtype=wp.int64), bands: int):
+    _run_pass(board, bands)
+
+
+@wp.kernel
+def _quit_kernel(board: wp.array(dtype=wp.int64)):
+    _quit_workers(board)
+
+
+def layout_matches() -> bool:
+    """Whether this platform can run native band threads: POSIX threads and clocks, and
+    Warp's one- and two-dimensional launch bounds laid out as the native loop writes them
+    (two uint32 extents, then size and coord_mult as size_t)."""
+    if os.name != "posix" or ctypes.sizeof(ctypes.c_void_p) != 8:
+        return False
+    from warp._src.types import launch_bounds_t
+
+    for dim in ((1,), (1, 1)):
+        cls = type(launch_bounds_t(dim))
+        fields = {name: getattr(cls, name).offset for name, _ in cls._fields_}
+        if fields != {"shape": 0, "size": 8, "coord_mult": 16} or ctypes.sizeof(cls) != 24:
+            return False
+    return True
+
+
+class _Pthreads:
+    """A pthread mutex and condition variable in ``ctypes`` memory, and the addresses of
+    the functions the native loop calls on them."""
+
+    def __init__(self) -> None:
+        libc = ctypes.CDLL(None)
+        self.mutex = ctypes.create_string_buffer(256)
+        self.cond = ctypes.create_string_buffer(256)
+        if libc.pthread_mutex_init(self.mutex, None) or libc.pthread_cond_init(self.cond, None):
+            raise OSError("pthread_mutex_init / pthread_cond_init failed")
+        self.functions = {
+            LOCK_FN: libc.pthread_mutex_lock,
+            UNLOCK_FN: libc.pthread_mutex_unlock,
+            WAIT_FN: libc.pthread_cond_wait,
+            BROADCAST_FN: libc.pthread_cond_broadcast,
+            CLOCK_FN: libc.clock_gettime,
+        }
+
+    def write(self, board: np.ndarray) -> None:
+        """Put the mutex, condition variable and functions' addresses on the board."""
+        board[MUTEX] = ctypes.addressof(self.mutex)
+        board[COND] = ctypes.addressof(self.cond)
+        for slot, fn in self.functions.items():
+            board[slot] = ctypes.cast(fn, ctypes.c_void_p).value
+
+
+def _stop(run_quit: Any, threads: Sequence[threading.Thread], keep: tuple[Any, ...]) -> None:
+    """Tell the helper threads to quit, wake them and wait for them (``keep``: the board
+    and the pthread objects, alive until then)."""
+    run_quit.launch()
+    for thread in threads:
+        thread.join()
+
+
+# a kernel's argument block layout by (kernel, trailing integers, packed types): the ctypes
+# structure and the trailing integers' byte offsets (making the structure type costs more
+# than packing the arguments)
+_LAYOUTS: dict[tuple[Any, ...], tuple[type[ctypes.Structure], list[int]]] = {}
+
+
+class PackedKernel:
+    """One thread's argument block for a kernel: its inputs packed as Warp packs a CPU
+    launch's arguments, the last ``len(offsets)`` of them int32 slots that each band
+    overwrites (their byte offsets in ``offsets``), and the kernel's entry point."""
+
+    def __init__(self, args: ctypes.Structure, offsets: list[int], forward: int, owner: Any) -> None:
+        """A block from its parts (``pack`` makes one; ``owner`` keeps what the packed
+        arrays point to alive)."""
+        self.args = args
+        self.offsets = offsets
+        self.forward = forward
+        self._owner = owner
+
+    @classmethod
+    def pack(cls, kernel: wp.Kernel, device: wp.context.Device, inputs: Sequence[Any], tail: int) -> PackedKernel:
+        """Pack ``inputs`` and ``tail`` zero integers for ``kernel`` on CPU ``device`` (the
+        kernel's module loaded); the trailing inputs must be int32."""
+        cmd = wp.launch(kernel, dim=1, inputs=[*inputs, *([0] * tail)], device=device, record_cmd=True)
+        if cmd.block_dim != 1:
+            raise TypeError(f"kernel {kernel.key}: a CPU launch in blocks of {cmd.block_dim}")
+        params = cmd.params[1:]
+        key = (kernel, tail, tuple(type(value) for value in params))
+        layout = _LAYOUTS.get(key)
+        if layout is None:
+            fields = [(arg.label, type(value)) for arg, value in zip(kernel.adj.args, params, strict=True)]
+            for name, ctype in fields[len(fields) - tail :]:
+                if ctype is not ctypes.c_int32:
+                    raise TypeError(f"kernel {kernel.key}: trailing input {name} is {ctype.__name__}, not int32")
+            struct = type("PackedArgs", (ctypes.Structure,), {"_fields_": fields})
+            layout = _LAYOUTS[key] = (
+                struct,
+                [getattr(struct, name).offset for name, _ in fields[len(fields) - tail :]],
+            )
+        struct, offsets = layout
+        return cls(struct(*params), offsets, ctypes.cast(cmd.hooks.forward, ctypes.c_void_p).value, cmd)
+
+    def copy(self) -> PackedKernel:
+        """Another block with the same contents (for another thread)."""
+        return PackedKernel(type(self.args).from_buffer_copy(self.args), self.offsets, self.forward, self._owner)
+
+    @property
+    def address(self) -> int:
+        """Where the argument block lies."""
+        return ctypes.addressof(self.args)
+
+
+class BandPool:
+    """``threads - 1`` helper threads in native loops, and the board they share; the
+    calling thread is thread 0.  ``run`` posts a pass and takes part in it."""
+
+    def __init__(self, device: wp.context.Device, threads: int, spin_ns: int = SPIN_NS_DEFAULT) -> None:
+        """Start ``threads - 1`` helpers on CPU ``device`` (``threads`` <= ``MAX_THREADS``)."""
+        if not 1 <= threads <= MAX_THREADS:
+            raise ValueError(f"threads {threads} outside 1..{MAX_THREADS}")
+        self.device = device
+        self.threads = threads
+        wp.load_module(_worker_kernel.module, device=device)
+        self._board = wp.zeros(BOARD_SIZE, dtype=wp.int64, device=device)
+        self._host = self._board.numpy()  # a view of the same memory on the CPU
+        self._posting = threading.Lock()
+        self._pthreads = _Pthreads()
+        self._pthreads.write(self._host)
+        self._host[SPIN_NS] = spin_ns
+        self._host[CLOCK_WALL] = time.CLOCK_MONOTONIC
+        self._host[CLOCK_CPU] = time.CLOCK_THREAD_CPUTIME_ID
+        self._run = wp.launch(_run_kernel, dim=1, inputs=[self._board, 0], device=device, record_cmd=True)
+        run_quit = wp.launch(_quit_kernel, dim=1, inputs=[self._board], device=device, record_cmd=True)
+        helpers = [
+            threading.Thread(
+                target=wp.launch,
+                args=(_worker_kernel,),
+                kwargs={"dim": 1, "inputs": [self._board, slot], "device": device},
+                name=f"warp-hybrid-band-{slot}",
+                daemon=True,
+            )
+            for slot in range(1, threads)
+        ]
+        for thread in helpers:
+            thread.start()
+        self._stop = weakref.finalize(self, _stop, run_quit, helpers, (self._board, self._pthreads))
+
+    def close(self) -> None:
+        """Stop the helper threads (idempotent)."""
+        self._stop()
+
+    def __enter__(self) -> BandPool:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    @property
+    def sleepers(self) -> int:
+        """How many helper threads sleep now (the others spin or run bands)."""
+        return int(self._host[SLEEPERS])
+
+    def nap(self) -> None:
+        """Let the helper threads sleep now instead of spinning until the next pass (the
+        cores go to other work: Python threads running a pass's pieces)."""
+        self._host[NAP] = 1
+
+    def run(self, blocks: Sequence[PackedKernel], bands: np.ndarray, timed: bool = False) -> None:
+        """Run one pass: band k is ``forward`` of the kernel with the thread's argument block
+        ``blocks[slot]`` (one per thread, the same kernel), its trailing integers set from
+        ``bands[k, 2:2 + tail]``, over launch dimension ``bands[k, :2]``.  ``bands`` is a
+        C-contiguous int64 (count, ``BAND_COLUMNS``) array; each row's ``COL_SLOT`` gets
+        the thread that ran it and, with ``timed``, ``COL_WALL_NS`` and ``COL_CPU_NS``
+        its wall and thread CPU time."""
+        count = bands.shape[0]
+        if count == 0:
+            return
+        if count > MAX_BANDS or len(blocks) != self.threads:
+            raise ValueError(f"{count} bands for {len(blocks)} blocks on {self.threads} threads")
+        with self._posting:  # one pass on the board at a time
+            self._post(blocks, bands, timed)
+
+    def _post(self, blocks: Sequence[PackedKernel], bands: np.ndarray, timed: bool) -> None:
+        """Write the pass's fields on the board and run it (``run``)."""
+        count = bands.shape[0]
+        host = self._host
+        first = blocks[0]
+        host[FN] = first.forward
+        host[BANDS] = bands.ctypes.data
+        host[TAILS] = len(first.offsets)
+        host[TAIL_OFFSETS : TAIL_OFFSETS + len(first.offsets)] = first.offsets
+        host[ARGS : ARGS + len(blocks)] = [block.address for block in blocks]
+        host[TIMED] = int(timed)
+        self._run.set_param_at_index_from_ctype(1, count)
+        self._run.launch()
+
+
+def native_band_pool(device: wp.context.Device, threads: int) -> BandPool | None:
+    """Native band threads for ``threads`` threads on ``device``: None on CUDA, on one
+    thread, beyond ``MAX_THREADS`` or where ``layout_matches`` fails (the caller then
+    uses Python threads)."""
+    if device.is_cuda or not 1 < threads <= MAX_THREADS or not layout_matches():
+        return None
+    return BandPool(device, threads)

@@ -83,7 +83,7 @@ def test_every_band_runs_once_with_its_own_dimension_and_integers(threads: int) 
     with BandPool(wp.get_device("cpu"), threads) as pool:
         for _ in range(3):  # the board is reused pass after pass
             table = _bands(spans, 1, width)
-            pool.run(_blocks(_mark_rows, [out, 1], 3, threads), table, timed=True)
+            assert pool.run([_blocks(_mark_rows, [out, 1], 3, threads)], table, timed=True) == len(spans)
             assert set(table[:, COL_SLOT]) <= set(range(threads))
             assert (table[:, COL_WALL_NS] >= 0).all() and (table[:, COL_CPU_NS] >= 0).all()
     np.testing.assert_array_equal(out.numpy(), np.full((height, width), 3, np.int32))
@@ -97,7 +97,7 @@ def _meet_in_one_pass(pool: BandPool) -> tuple[np.ndarray, np.ndarray]:
     table = np.zeros((2, BAND_COLUMNS), dtype=np.int64)
     table[:, :2] = 1
     table[:, 2] = (0, 1)
-    pool.run(_blocks(_rendezvous, [flags, met], 1, pool.threads), table)
+    assert pool.run([_blocks(_rendezvous, [flags, met], 1, pool.threads)], table) == 2
     return met.numpy(), table[:, COL_SLOT]
 
 
@@ -154,6 +154,6 @@ def test_a_trailing_input_must_be_int32() -> None:
 def test_the_board_holds_bands_up_to_its_limit() -> None:
     with BandPool(wp.get_device("cpu"), 2) as pool:
         with pytest.raises(ValueError, match="bands"):
-            pool.run([], np.zeros((band_pool.MAX_BANDS + 1, BAND_COLUMNS), dtype=np.int64))
+            pool.run([[]], np.zeros((band_pool.MAX_BANDS + 1, BAND_COLUMNS), dtype=np.int64))
         with pytest.raises(ValueError, match="threads"):
             BandPool(wp.get_device("cpu"), band_pool.MAX_THREADS + 1)

@@ -17,11 +17,13 @@ from warp_hybrid.parallel import (
     BandLaunch,
     CostBands,
     Launcher,
+    StagedBand,
     band,
     band_count,
     group_launch,
     item_group,
 )
+from warp_hybrid.timing import StageTimer
 
 
 @pytest.fixture(params=["native", "python"])
@@ -442,3 +444,104 @@ def test_launch_bands_runs_each_band_once_and_times_it(band_threads: str) -> Non
     np.testing.assert_array_equal(out.numpy(), np.full(count, 2, np.int32))
     assert costs is not None and len(costs) == len(spans)
     assert all(c >= 0.0 for c in costs) and costs[3] > 0.0
+
+
+@wp.kernel
+def _double_marks(src: wp.array(dtype=wp.int32), dst: wp.array(dtype=wp.int32), start: int, step: int):
+    i = start + wp.tid() * step
+    dst[i] = 2 * src[i]
+
+
+def _staged_bands(count: int, bands: int, must: int) -> list[StagedBand]:
+    """``bands`` bands over ``count`` items, each marking its items then doubling the
+    marks; the first ``must`` run whatever the deadline."""
+    out = []
+    for k in range(bands):
+        first, items = band(k, bands, count)
+        out.append(StagedBand(((items, (first, 1)), (items, (first, 1))), items, must=k < must))
+    return out
+
+
+def test_launch_staged_runs_a_bands_stages_in_order(band_threads: str) -> None:
+    """Each band runs its first stage, then its second over what the first wrote (the
+    stages of a band run on one thread in order); every band runs, with each stage's
+    time and the thread that ran it."""
+    count, bands = 3000, 12
+    src = wp.zeros(count, dtype=wp.int32, device="cpu")
+    dst = wp.zeros(count, dtype=wp.int32, device="cpu")
+    with Launcher("cpu", 2) as launcher:
+        run = launcher.launch_staged(
+            [(_count_items, [src]), (_double_marks, [src, dst])], _staged_bands(count, bands, 0), cpu=True
+        )
+    np.testing.assert_array_equal(dst.numpy(), np.full(count, 2, np.int32))
+    assert run.ran == bands and set(run.slots) <= {0, 1} and len(run.slots) == bands
+    assert run.seconds.shape == run.cpu_seconds.shape == (bands, 2)
+    assert (run.seconds >= 0.0).all() and (run.cpu_seconds >= 0.0).all()
+
+
+@pytest.mark.parametrize("deadline", [float("-inf"), -1.0, float("nan")])
+def test_a_passed_deadline_runs_only_the_bands_that_must(band_threads: str, deadline: float) -> None:
+    """With the deadline behind the clock (or one no time ends by), the bands marked
+    ``must`` run and the pass stops at the first other band: a prefix, nothing after it."""
+    count, bands, must = 3000, 12, 3
+    src = wp.zeros(count, dtype=wp.int32, device="cpu")
+    dst = wp.zeros(count, dtype=wp.int32, device="cpu")
+    timer = StageTimer()
+    with Launcher("cpu", 2) as launcher:
+        run = launcher.launch_staged(
+            [(_count_items, [src]), (_double_marks, [src, dst])],
+            _staged_bands(count, bands, must),
+            timer,
+            timer.now() + deadline if deadline == -1.0 else deadline,
+        )
+    assert run.ran == must
+    end = band(must - 1, bands, count)[0] + band(must - 1, bands, count)[1]
+    expected = np.zeros(count, np.int32)
+    expected[:end] = 2
+    np.testing.assert_array_equal(dst.numpy(), expected)
+
+
+def test_a_deadline_far_ahead_runs_every_band(band_threads: str) -> None:
+    count, bands = 3000, 12
+    src = wp.zeros(count, dtype=wp.int32, device="cpu")
+    dst = wp.zeros(count, dtype=wp.int32, device="cpu")
+    timer = StageTimer()
+    for deadline in (timer.now() + 3600.0, float("inf")):
+        with Launcher("cpu", 2) as launcher:
+            run = launcher.launch_staged(
+                [(_count_items, [src]), (_double_marks, [src, dst])], _staged_bands(count, bands, 1), timer, deadline
+            )
+        assert run.ran == bands
+    np.testing.assert_array_equal(src.numpy(), np.full(count, 2, np.int32))
+
+
+def test_an_injected_clock_decides_the_deadline_on_the_python_threads() -> None:
+    """A timer on another clock than ``perf_clock`` (a test's fake clock) is asked band by
+    band: the clock reads 0 until two bands have run, then far past the deadline."""
+    count, bands = 3000, 12
+    src = wp.zeros(count, dtype=wp.int32, device="cpu")
+    ticks: list[int] = []
+
+    def clock() -> float:
+        ticks.append(1)
+        return 0.0 if len(ticks) < 2 * 2 * 2 else 1.0e9
+
+    with Launcher("cpu", 1) as launcher:
+        run = launcher.launch_staged(
+            [(_count_items, [src]), (_count_items, [src])],
+            _staged_bands(count, bands, 1),
+            StageTimer(clock=clock),
+            10.0,
+        )
+    assert run.ran == 2  # each band reads the clock twice a stage; the third band is refused
+    assert src.numpy()[: band(1, bands, count)[0] + band(1, bands, count)[1]].min() == 2
+    # on two threads too: a clock stopped at 0 never passes a deadline 10 s after it (the
+    # monotonic clock, seconds since boot, would)
+    with Launcher("cpu", 2) as launcher:
+        run = launcher.launch_staged(
+            [(_count_items, [src]), (_count_items, [src])],
+            _staged_bands(count, bands, 1),
+            StageTimer(clock=lambda: 0.0),
+            10.0,
+        )
+    assert run.ran == bands

@@ -1,14 +1,16 @@
 """Native band threads: the bands of a CPU pass run by threads that stay in native code.
 
-A CPU pass is cut into bands (``parallel``), each band one call of the kernel's compiled
-entry point ``forward(&bounds, &args)`` with its own dimension and trailing integers.
-Handing bands to Python threads costs, per pass, a thread's wake-up (40-160 us, more on a
-virtual machine) and, per band, ~15 us of Python taken in turns under the GIL.  Here the
-helper threads never come back to Python while they have work: each sits in a native
-loop (a one-item Warp kernel, ``_worker_kernel``) that watches a shared *board* and takes
-bands as they are posted, spinning for a short while after the last one, then sleeping
-on a condition variable.  The caller posts a pass (``BandPool.run``: one more native call
-with the GIL released), takes bands itself and returns once every band is done.
+A CPU pass is cut into bands (``parallel``), each band one call of a kernel's compiled
+entry point ``forward(&bounds, &args)`` with its own dimension and trailing integers (or,
+in a pass of two *stages*, the tracer's shadows then paths, one call of each in order).
+Handing bands to Python threads costs, per pass, a thread's wake-up (40-160 us, more on
+a virtual machine) and, per band, ~15 us of Python taken in turns under the GIL.  Here
+the helper threads never come back to Python while they have work: each sits in a
+native loop (a one-item Warp kernel, ``_worker_kernel``) that watches a shared *board*
+and takes bands as they are posted, spinning for a short while after the last one
+(``SPIN_NS_DEFAULT``), then sleeping on a pthread condition variable (at once after
+``BandPool.nap``).  The caller posts a pass (``BandPool.run``: one more native call
+with the GIL released), takes bands itself and returns once every band taken is done.
 
 The board (an int64 Warp array) holds one pass at a time:
 
@@ -16,13 +18,16 @@ The board (an int64 Warp array) holds one pass at a time:
   not yet taken (20 bits) in one word, so a thread takes band k by one compare-and-swap
   and a thread that read an older pass's fields fails its swap (the caller rewrites the
   fields only when every band of the last pass is done, and bumps the pass number when
-  it posts);
-- ``DONE``: bands finished; the caller waits until it equals the band count;
-- the pass's fields: the kernel's entry point, each thread's argument block (a packed
-  ``ctypes`` structure the thread alone writes its band's trailing integers into), the
-  trailing integers' byte offsets, and the band table (``BAND_COLUMNS`` int64 per band:
-  its launch dimension, its trailing integers and, written back, the thread that ran it
-  and its wall and thread CPU nanoseconds).
+  it posts).  A band refused by the pass's deadline closes the pass by setting the
+  count to its index, so the bands that run are always a prefix;
+- ``DONE``: bands finished; the caller waits until it equals the count;
+- the pass's fields: per stage the kernel's entry point, each thread's argument block
+  (a packed ``ctypes`` structure the thread alone writes its band's trailing integers
+  into) and the trailing integers' byte offsets; the deadline (``CLOCK_MONOTONIC`` ns)
+  and what the bands done so far took; and the band table (``BAND_COLUMNS`` int64 per
+  band: per stage its launch dimension and trailing integers, its items and whether it
+  must run, and, written back, the thread that ran it and each stage's wall and thread
+  CPU nanoseconds).
 
 The layouts this relies on are Warp's: a CPU kernel's ``forward(launch_bounds_t*,
 wp_args*)`` (its arguments packed in order, as ``warp.context.invoke`` packs them) and a
@@ -45,21 +50,48 @@ from typing import Any
 import numpy as np
 import warp as wp
 
-# the board's slots (int64 each)
-TICKET, DONE, SLEEPERS, QUIT, NAP, FN, BANDS, TAILS, TIMED, SPIN_NS = range(10)
-TAIL_OFFSETS = 10  # .. + MAX_TAIL
+# the board's slots (int64 each): the pass, then per stage its kernel, trailing integers
+# and each thread's argument block, then the pthread objects and functions
+(
+    TICKET,
+    DONE,
+    SLEEPERS,
+    QUIT,
+    NAP,
+    BANDS,
+    STAGES,
+    TIMED,
+    SPIN_NS,
+    DEADLINE_NS,
+    BUSY_NS,
+    ITEMS_DONE,
+    RAN,
+) = range(13)
+MAX_STAGES = 2
 MAX_TAIL = 4
-ARGS = TAIL_OFFSETS + MAX_TAIL  # .. + MAX_THREADS: each thread's argument block
 MAX_THREADS = 16
+FN = RAN + 1  # .. + MAX_STAGES: each stage's kernel entry point
+TAILS = FN + MAX_STAGES  # .. + MAX_STAGES: each stage's count of trailing integers
+TAIL_OFFSETS = TAILS + MAX_STAGES  # + stage * MAX_TAIL + i: their byte offsets
+ARGS = TAIL_OFFSETS + MAX_STAGES * MAX_TAIL  # + stage * MAX_THREADS + slot: argument blocks
 MUTEX, COND, LOCK_FN, UNLOCK_FN, WAIT_FN, BROADCAST_FN, CLOCK_FN, CLOCK_WALL, CLOCK_CPU = range(
-    ARGS + MAX_THREADS, ARGS + MAX_THREADS + 9
+    ARGS + MAX_STAGES * MAX_THREADS, ARGS + MAX_STAGES * MAX_THREADS + 9
 )
 BOARD_SIZE = CLOCK_CPU + 1
+#: ``DEADLINE_NS`` of a pass with no deadline
+NO_DEADLINE = (1 << 63) - 1
 
-# a band's row in the band table: dim0, dim1, the trailing integers, then (written back)
-# the thread that ran it and its wall and thread CPU ns
-BAND_COLUMNS = 2 + MAX_TAIL + 3
-COL_SLOT, COL_WALL_NS, COL_CPU_NS = 2 + MAX_TAIL, 2 + MAX_TAIL + 1, 2 + MAX_TAIL + 2
+# A band's row in the band table: per stage its launch dimension (two extents; a stage of
+# size 0 is skipped) and trailing integers (``STAGE_COLUMNS`` each); its items (what the
+# deadline's estimate counts) and whether it runs whatever the deadline; then, written
+# back, the thread that ran it and each stage's wall and thread CPU ns.
+STAGE_COLUMNS = 2 + MAX_TAIL
+COL_ITEMS = MAX_STAGES * STAGE_COLUMNS
+COL_MUST = COL_ITEMS + 1
+COL_SLOT = COL_MUST + 1
+COL_WALL_NS = COL_SLOT + 1  # + stage
+COL_CPU_NS = COL_WALL_NS + MAX_STAGES  # + stage
+BAND_COLUMNS = COL_CPU_NS + MAX_STAGES
 
 # bits of TICKET: pass number | band count | next band
 BAND_BITS = 20
@@ -94,40 +126,72 @@ auto now_ns = [&](long long clock) -> long long {{
     return ts.sec * 1000000000LL + ts.nsec;
 }};
 auto load = [&](int i) -> long long {{ return __atomic_load_n(&b[i], __ATOMIC_SEQ_CST); }};
+auto field = [&](int i) -> long long {{ return __atomic_load_n(&b[i], __ATOMIC_RELAXED); }};
 const unsigned long long mask = {MAX_BANDS}ULL;
-// Take the next band of the posted pass and run it: false when none is left (true after a
-// lost race too: try again).
+// Take the next band of the posted pass and run its stages: false when none is left (true
+// after a lost race too: try again).  Before a band that need not run, the deadline is
+// asked (now plus its items at the mean time an item of the bands done so far); a band
+// that would end after it closes the pass there (its band count becomes that band's index).
 auto take = [&](int slot) -> bool {{
     unsigned long long t = (unsigned long long)load({TICKET});
     const long long n = (long long)((t >> {BAND_BITS}) & mask);
     const long long k = (long long)(t & mask);
     if (k >= n) return false;
-    const Forward fn = (Forward)__atomic_load_n(&b[{FN}], __ATOMIC_RELAXED);
-    long long* const row = (long long*)__atomic_load_n(&b[{BANDS}], __ATOMIC_RELAXED) + k * {BAND_COLUMNS};
-    char* const args = (char*)__atomic_load_n(&b[{ARGS} + slot], __ATOMIC_RELAXED);
-    const long long tails = __atomic_load_n(&b[{TAILS}], __ATOMIC_RELAXED);
-    const long long timed = __atomic_load_n(&b[{TIMED}], __ATOMIC_RELAXED);
-    long long offsets[{MAX_TAIL}];
-    for (int i = 0; i < {MAX_TAIL}; ++i) offsets[i] = __atomic_load_n(&b[{TAIL_OFFSETS} + i], __ATOMIC_RELAXED);
+    const long long stages = field({STAGES});
+    Forward fn[{MAX_STAGES}];
+    char* args[{MAX_STAGES}];
+    long long tails[{MAX_STAGES}];
+    long long offsets[{MAX_STAGES}][{MAX_TAIL}];
+    for (int s = 0; s < stages; ++s) {{
+        fn[s] = (Forward)field({FN} + s);
+        args[s] = (char*)field({ARGS} + s * {MAX_THREADS} + slot);
+        tails[s] = field({TAILS} + s);
+        for (int i = 0; i < {MAX_TAIL}; ++i) offsets[s][i] = field({TAIL_OFFSETS} + s * {MAX_TAIL} + i);
+    }}
+    long long* const row = (long long*)field({BANDS}) + k * {BAND_COLUMNS};
+    const long long deadline = field({DEADLINE_NS});
+    const bool clocked = field({TIMED}) != 0 || deadline != {NO_DEADLINE}LL;
+    bool go = true;
+    if (deadline != {NO_DEADLINE}LL && row[{COL_MUST}] == 0) {{
+        const long long items_done = load({ITEMS_DONE});
+        const double per_item = items_done > 0 ? (double)load({BUSY_NS}) / (double)items_done : 0.0;
+        go = (double)now_ns(b[{CLOCK_WALL}]) + (double)row[{COL_ITEMS}] * per_item <= (double)deadline;
+    }}
     __atomic_thread_fence(__ATOMIC_SEQ_CST);
+    if (!go) {{
+        const unsigned long long closed = (t & ~((mask << {BAND_BITS}) | mask)) |
+                                          ((unsigned long long)k << {BAND_BITS}) | (unsigned long long)k;
+        __atomic_compare_exchange_n((unsigned long long*)&b[{TICKET}], &t, closed, false, __ATOMIC_SEQ_CST,
+                                    __ATOMIC_SEQ_CST);
+        return true;
+    }}
     if (!__atomic_compare_exchange_n((unsigned long long*)&b[{TICKET}], &t, t + 1, false, __ATOMIC_SEQ_CST,
                                      __ATOMIC_SEQ_CST))
         return true;
-    // band k of this pass is ours: its fields stay put until every band is done
-    for (int i = 0; i < tails; ++i) *(int*)(args + offsets[i]) = (int)row[2 + i];
-    Bounds bounds;
-    bounds.shape[0] = (unsigned int)row[0];
-    bounds.shape[1] = (unsigned int)row[1];
-    bounds.size = (unsigned long long)row[0] * (unsigned long long)row[1];
-    bounds.coord_mult = 1;
-    long long wall = 0, cpu = 0;
-    if (timed) {{ wall = now_ns(b[{CLOCK_WALL}]); cpu = now_ns(b[{CLOCK_CPU}]); }}
-    if (bounds.size > 0) fn(&bounds, args);
-    if (timed) {{
-        row[{COL_WALL_NS}] = now_ns(b[{CLOCK_WALL}]) - wall;
-        row[{COL_CPU_NS}] = now_ns(b[{CLOCK_CPU}]) - cpu;
+    // band k of this pass is ours: its fields stay put until every band taken is done
+    long long band_ns = 0;
+    for (int s = 0; s < stages; ++s) {{
+        const long long* const stage = row + s * {STAGE_COLUMNS};
+        for (int i = 0; i < tails[s]; ++i) *(int*)(args[s] + offsets[s][i]) = (int)stage[2 + i];
+        Bounds bounds;
+        bounds.shape[0] = (unsigned int)stage[0];
+        bounds.shape[1] = (unsigned int)stage[1];
+        bounds.size = (unsigned long long)stage[0] * (unsigned long long)stage[1];
+        bounds.coord_mult = 1;
+        long long wall = 0, cpu = 0;
+        if (clocked) {{ wall = now_ns(b[{CLOCK_WALL}]); cpu = now_ns(b[{CLOCK_CPU}]); }}
+        if (bounds.size > 0) fn[s](&bounds, args[s]);
+        if (clocked) {{
+            row[{COL_WALL_NS} + s] = now_ns(b[{CLOCK_WALL}]) - wall;
+            row[{COL_CPU_NS} + s] = now_ns(b[{CLOCK_CPU}]) - cpu;
+            band_ns += row[{COL_WALL_NS} + s];
+        }}
     }}
     row[{COL_SLOT}] = slot;
+    if (deadline != {NO_DEADLINE}LL) {{
+        __atomic_fetch_add(&b[{BUSY_NS}], band_ns, __ATOMIC_SEQ_CST);
+        __atomic_fetch_add(&b[{ITEMS_DONE}], row[{COL_ITEMS}], __ATOMIC_SEQ_CST);
+    }}
     __atomic_fetch_add(&b[{DONE}], 1, __ATOMIC_SEQ_CST);
     return true;
 }};
@@ -174,6 +238,8 @@ _RUN_CPP = (
     + f"""
 __atomic_store_n(&b[{DONE}], 0, __ATOMIC_SEQ_CST);
 __atomic_store_n(&b[{NAP}], 0, __ATOMIC_SEQ_CST);
+__atomic_store_n(&b[{BUSY_NS}], 0, __ATOMIC_SEQ_CST);
+__atomic_store_n(&b[{ITEMS_DONE}], 0, __ATOMIC_SEQ_CST);
 const unsigned long long last = (unsigned long long)load({TICKET});
 const unsigned long long pass = ((last >> {2 * BAND_BITS}) + 1) & 0xFFFFFFULL;
 __atomic_store_n((unsigned long long*)&b[{TICKET}], (pass << {2 * BAND_BITS}) | ((unsigned long long)bands << {BAND_BITS}),
@@ -184,7 +250,10 @@ if (load({SLEEPERS}) > 0) {{
     ((PthreadFn)b[{UNLOCK_FN}])((void*)b[{MUTEX}]);
 }}
 while (take(0)) {{}}
-while (load({DONE}) < bands) WH_PAUSE();
+// no band is left to take or to refuse: the ticket's count is the bands taken
+const long long taken = (long long)(((unsigned long long)load({TICKET}) >> {BAND_BITS}) & mask);
+while (load({DONE}) < taken) WH_PAUSE();
+b[{RAN}] = taken;
 return 0;
 #endif
 """
@@ -304,7 +373,9 @@ class PackedKernel:
     @classmethod
     def pack(cls, kernel: wp.Kernel, device: wp.context.Device, inputs: Sequence[Any], tail: int) -> PackedKernel:
         """Pack ``inputs`` and ``tail`` zero integers for ``kernel`` on CPU ``device`` (the
-        kernel's module loaded); the trailing inputs must be int32."""
+        kernel's module loaded); the trailing inputs (at most ``MAX_TAIL``) must be int32."""
+        if tail > MAX_TAIL:
+            raise ValueError(f"kernel {kernel.key}: {tail} trailing integers, at most {MAX_TAIL}")
         cmd = wp.launch(kernel, dim=1, inputs=[*inputs, *([0] * tail)], device=device, record_cmd=True)
         if cmd.block_dim != 1:
             raise TypeError(f"kernel {kernel.key}: a CPU launch in blocks of {cmd.block_dim}")
@@ -389,34 +460,51 @@ class BandPool:
         cores go to other work: Python threads running a pass's pieces)."""
         self._host[NAP] = 1
 
-    def run(self, blocks: Sequence[PackedKernel], bands: np.ndarray, timed: bool = False) -> None:
-        """Run one pass: band k is ``forward`` of the kernel with the thread's argument block
-        ``blocks[slot]`` (one per thread, the same kernel), its trailing integers set from
-        ``bands[k, 2:2 + tail]``, over launch dimension ``bands[k, :2]``.  ``bands`` is a
-        C-contiguous int64 (count, ``BAND_COLUMNS``) array; each row's ``COL_SLOT`` gets
-        the thread that ran it and, with ``timed``, ``COL_WALL_NS`` and ``COL_CPU_NS``
-        its wall and thread CPU time."""
+    def run(
+        self,
+        stages: Sequence[Sequence[PackedKernel]],
+        bands: np.ndarray,
+        timed: bool = False,
+        deadline_ns: int | None = None,
+    ) -> int:
+        """Run one pass and return how many of its bands ran (all, or those before the first
+        refused by the deadline).  Band k runs each stage s in order: ``forward`` of stage
+        s's kernel with the thread's argument block ``stages[s][slot]`` (one per thread),
+        its trailing integers set from ``bands[k, s * STAGE_COLUMNS + 2:][:tail]``, over
+        launch dimension ``bands[k, s * STAGE_COLUMNS:][:2]``.  ``bands`` is a C-contiguous
+        int64 (count, ``BAND_COLUMNS``) array; each band run gets the thread that ran it
+        (``COL_SLOT``) and, with ``timed`` or a deadline, each stage's wall and thread CPU
+        time.  ``deadline_ns`` (``time.CLOCK_MONOTONIC``, None: none): before each band
+        whose ``COL_MUST`` is 0, the pass stops there if now plus its ``COL_ITEMS`` at the
+        mean wall time an item of the bands done so far is past the deadline."""
         count = bands.shape[0]
         if count == 0:
-            return
-        if count > MAX_BANDS or len(blocks) != self.threads:
-            raise ValueError(f"{count} bands for {len(blocks)} blocks on {self.threads} threads")
+            return 0
+        if count > MAX_BANDS or not 1 <= len(stages) <= MAX_STAGES or any(len(s) != self.threads for s in stages):
+            raise ValueError(f"{count} bands of {len(stages)} stages for {self.threads} threads")
+        if bands.shape[1] != BAND_COLUMNS or bands.dtype != np.int64 or not bands.flags.c_contiguous:
+            raise ValueError("the band table must be a C-contiguous int64 (bands, BAND_COLUMNS) array")
         with self._posting:  # one pass on the board at a time
-            self._post(blocks, bands, timed)
+            return self._post(stages, bands, timed, deadline_ns)
 
-    def _post(self, blocks: Sequence[PackedKernel], bands: np.ndarray, timed: bool) -> None:
+    def _post(
+        self, stages: Sequence[Sequence[PackedKernel]], bands: np.ndarray, timed: bool, deadline_ns: int | None
+    ) -> int:
         """Write the pass's fields on the board and run it (``run``)."""
-        count = bands.shape[0]
         host = self._host
-        first = blocks[0]
-        host[FN] = first.forward
+        host[STAGES] = len(stages)
+        for s, blocks in enumerate(stages):
+            offsets = blocks[0].offsets
+            host[FN + s] = blocks[0].forward
+            host[TAILS + s] = len(offsets)
+            host[TAIL_OFFSETS + s * MAX_TAIL : TAIL_OFFSETS + s * MAX_TAIL + len(offsets)] = offsets
+            host[ARGS + s * MAX_THREADS : ARGS + s * MAX_THREADS + len(blocks)] = [block.address for block in blocks]
         host[BANDS] = bands.ctypes.data
-        host[TAILS] = len(first.offsets)
-        host[TAIL_OFFSETS : TAIL_OFFSETS + len(first.offsets)] = first.offsets
-        host[ARGS : ARGS + len(blocks)] = [block.address for block in blocks]
         host[TIMED] = int(timed)
-        self._run.set_param_at_index_from_ctype(1, count)
+        host[DEADLINE_NS] = NO_DEADLINE if deadline_ns is None else min(int(deadline_ns), NO_DEADLINE)
+        self._run.set_param_at_index_from_ctype(1, bands.shape[0])
         self._run.launch()
+        return int(host[RAN])
 
 
 def native_band_pool(device: wp.context.Device, threads: int) -> BandPool | None:

@@ -33,13 +33,72 @@ import threading
 import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import warp as wp
 
-from .band_pool import BAND_COLUMNS, COL_CPU_NS, COL_SLOT, COL_WALL_NS, PackedKernel, native_band_pool
+from .band_pool import (
+    BAND_COLUMNS,
+    COL_CPU_NS,
+    COL_ITEMS,
+    COL_MUST,
+    COL_SLOT,
+    COL_WALL_NS,
+    MAX_STAGES,
+    NO_DEADLINE,
+    STAGE_COLUMNS,
+    PackedKernel,
+    native_band_pool,
+)
 from .launch_profile import LaunchProfile
+from .timing import StageTimer, perf_clock
+
+#: A kernel's leading inputs: the same for every thread, or given per thread slot.
+Inputs = Sequence[Any] | Callable[[int], Sequence[Any]]
+#: One launch of a band: its dimension (an int, or a tuple of one or two) and trailing integers.
+Launch = tuple[Any, Sequence[int]]
+#: Whether ``time.perf_counter`` (``timing.perf_clock``) reads the clock the native band
+#: threads read their deadline on.
+MONOTONIC_PERF_COUNTER = time.get_clock_info("perf_counter").implementation == "clock_gettime(CLOCK_MONOTONIC)"
+
+
+def _launch_size(dim: Any) -> int:
+    """How many launch items a launch dimension holds."""
+    return int(np.prod(dim)) if not isinstance(dim, int) else dim
+
+
+def _deadline_ns(deadline: float) -> int:
+    """A deadline in seconds as the native band threads read it: nanoseconds, clamped to
+    int64 (``NO_DEADLINE`` at or past its top, the bottom for -inf and NaN, which no
+    time ends by)."""
+    ns = deadline * 1e9
+    if ns >= NO_DEADLINE:
+        return NO_DEADLINE
+    return int(ns) if ns > -NO_DEADLINE else -NO_DEADLINE
+
+
+@dataclass(frozen=True)
+class StagedBand:
+    """One band of a staged pass (``Launcher.launch_staged``): each stage's launch, the
+    items the deadline's estimate counts, and whether it runs whatever the deadline."""
+
+    launches: Sequence[Launch]
+    items: int = 0
+    must: bool = True
+
+
+@dataclass
+class StagedRun:
+    """What a staged pass ran: the first ``ran`` bands, the thread slot of each, and each
+    stage's wall (and, when asked, thread CPU) seconds, (ran, stages)."""
+
+    ran: int
+    slots: list[int]
+    seconds: np.ndarray
+    cpu_seconds: np.ndarray
+
 
 # Bands per thread in a CPU pass, and the fewest rows / items a band holds (a launch
 # costs ~20 us of Python, so tiny images and lists are not cut finer than this).
@@ -350,64 +409,152 @@ class Launcher:
     def launch_bands(
         self,
         kernel: wp.Kernel,
-        inputs: Sequence[Any] | Callable[[int], Sequence[Any]],
-        bands: Sequence[tuple[Any, Sequence[int]]],
+        inputs: Inputs,
+        bands: Sequence[Launch],
         timed: bool = False,
     ) -> list[float] | None:
         """Run one CPU pass of ``kernel`` cut into ``bands``: band k launches over dimension
         ``bands[k][0]`` (an int, or a tuple of one or two) with inputs ``[*inputs,
         *bands[k][1]]`` (``inputs``: the same for every band, or a callable giving them
         per thread slot; the trailing integers int32), each thread taking the next band
-        left.  The bands run on native band threads (``band_pool``) where this platform
-        has them, else on the Python pool (``share_until``).  Returns each band's thread
-        CPU seconds with ``timed``, else None."""
+        left (``launch_staged`` with one stage).  Returns each band's thread CPU seconds
+        with ``timed``, else None."""
         if not bands:
             return [] if timed else None
-        self.ensure_loaded(kernel)
         if self._bands is not None:
-            return self._native_bands(kernel, inputs, bands, timed)
-        run = BandLaunch(self, kernel, inputs)
-        costs = [0.0] * len(bands)
+            self.ensure_loaded(kernel)
+            _ran, table = self._native_pass([(kernel, inputs)], [[launch] for launch in bands], None, None, timed)
+            return (table[:, COL_CPU_NS] * 1e-9).tolist() if timed else None
+        staged = self.launch_staged([(kernel, inputs)], [StagedBand((launch,)) for launch in bands], cpu=timed)
+        return staged.cpu_seconds[:, 0].tolist() if timed else None
+
+    def launch_staged(
+        self,
+        stages: Sequence[tuple[wp.Kernel, Inputs]],
+        bands: Sequence[StagedBand],
+        timer: StageTimer | None = None,
+        deadline: float | None = None,
+        cpu: bool = False,
+    ) -> StagedRun:
+        """Run the bands of a CPU pass made of ``stages`` (kernel, inputs as in
+        ``launch_bands``; at most ``band_pool.MAX_STAGES``): band k runs
+        ``bands[k].launches[s]`` of each stage s in order (a dimension of size 0 skips
+        one), each thread taking the next band left.  With a ``deadline`` (seconds on
+        ``timer``'s clock), a band not marked ``must`` runs only if ``timer.now()`` plus
+        its items at the mean wall time an item of the bands done so far ends by the
+        deadline; the first it refuses stops the pass there (a prefix of the bands
+        runs).  On the native band threads where the timer's clock is the monotonic
+        ``timing.perf_clock`` with no device sync (or no deadline is asked), else on the
+        Python pool.  Returns which bands ran, on which thread, and each stage's wall
+        seconds (and thread CPU seconds with ``cpu``)."""
+        count = len(bands)
+        if not 1 <= len(stages) <= MAX_STAGES or any(len(b.launches) != len(stages) for b in bands):
+            raise ValueError(f"{len(stages)} stages (at most {MAX_STAGES}), and every band one launch a stage")
+        if count == 0:
+            return StagedRun(0, [], np.zeros((0, len(stages))), np.zeros((0, len(stages))))
+        for kernel, _inputs in stages:
+            self.ensure_loaded(kernel)
+        native_clock = deadline is None or (timer is not None and timer.clock is perf_clock and timer.sync is None)
+        if self._bands is not None and native_clock and MONOTONIC_PERF_COUNTER:
+            deadline_ns = None if deadline is None else _deadline_ns(deadline)
+            items = [b.items for b in bands]
+            must = [b.must for b in bands]
+            ran, table = self._native_pass(stages, [b.launches for b in bands], items, must, cpu, deadline_ns, True)
+            n = len(stages)
+            return StagedRun(
+                ran,
+                table[:ran, COL_SLOT].tolist(),
+                table[:ran, COL_WALL_NS : COL_WALL_NS + n] * 1e-9,
+                table[:ran, COL_CPU_NS : COL_CPU_NS + n] * 1e-9,
+            )
+        return self._python_staged(stages, bands, timer, deadline, cpu)
+
+    def _python_staged(
+        self,
+        stages: Sequence[tuple[wp.Kernel, Inputs]],
+        bands: Sequence[StagedBand],
+        timer: StageTimer | None,
+        deadline: float | None,
+        cpu: bool,
+    ) -> StagedRun:
+        """``launch_staged`` on the Python pool (``share_until``), timed on ``timer``'s
+        clock (``timing.perf_clock`` without one)."""
+        runs = [BandLaunch(self, kernel, inputs) for kernel, inputs in stages]
+        now = timer.now if timer is not None else perf_clock
+        seconds = np.zeros((len(bands), len(stages)))
+        cpu_seconds = np.zeros((len(bands), len(stages)))
+        slots = [0] * len(bands)
+        done = {"items": 0, "seconds": 0.0}
+
+        def proceed(k: int) -> bool:
+            band = bands[k]
+            if deadline is None or band.must:
+                return True
+            per_item = done["seconds"] / done["items"] if done["items"] > 0 else 0.0
+            return now() + band.items * per_item <= deadline
 
         def job(k: int, slot: int) -> None:
-            dim, tail = bands[k]
-            start = time.thread_time() if timed else 0.0
-            run(slot, dim, tail, k == 0)
-            if timed:
-                costs[k] = time.thread_time() - start
+            band = bands[k]
+            for s, (run, (dim, tail)) in enumerate(zip(runs, band.launches, strict=True)):
+                start, start_cpu = now(), time.thread_time() if cpu else 0.0
+                if _launch_size(dim) > 0:
+                    run(slot, dim, tail, k == 0)
+                seconds[k, s] = now() - start
+                if cpu:
+                    cpu_seconds[k, s] = time.thread_time() - start_cpu
+            slots[k] = slot
+            with lock:
+                done["items"] += band.items
+                done["seconds"] += float(seconds[k].sum())
 
-        self.share_until(job, len(bands))
-        return costs if timed else None
+        lock = threading.Lock()
+        ran = self.share_until(job, len(bands), proceed)
+        return StagedRun(ran, slots[:ran], seconds[:ran], cpu_seconds[:ran])
 
-    def _native_bands(
-        self,
-        kernel: wp.Kernel,
-        inputs: Sequence[Any] | Callable[[int], Sequence[Any]],
-        bands: Sequence[tuple[Any, Sequence[int]]],
-        timed: bool,
-    ) -> list[float] | None:
-        """``launch_bands`` on the native band threads: each thread's argument block packed
-        once, the bands' dimensions and trailing integers in one table."""
-        pool = self._bands
-        tail = len(bands[0][1])
+    def _pack(self, kernel: wp.Kernel, inputs: Inputs, tail: int) -> list[PackedKernel]:
+        """Each thread's argument block for ``kernel``: packed once and copied, or, for
+        inputs given per thread slot, packed per thread."""
         if callable(inputs):
-            blocks = [PackedKernel.pack(kernel, self.device, inputs(slot), tail) for slot in range(self.threads)]
-        else:
-            block = PackedKernel.pack(kernel, self.device, inputs, tail)
-            blocks = [block, *(block.copy() for _ in range(1, self.threads))]
-        table = np.zeros((len(bands), BAND_COLUMNS), dtype=np.int64)
-        for k, (dim, ints) in enumerate(bands):
-            extents = (dim,) if isinstance(dim, int) else tuple(dim)
-            table[k, : len(extents)] = extents
-            if len(extents) == 1:
-                table[k, 1] = 1
-            table[k, 2 : 2 + tail] = ints
+            return [PackedKernel.pack(kernel, self.device, inputs(slot), tail) for slot in range(self.threads)]
+        block = PackedKernel.pack(kernel, self.device, inputs, tail)
+        return [block, *(block.copy() for _ in range(1, self.threads))]
+
+    def _native_pass(
+        self,
+        stages: Sequence[tuple[wp.Kernel, Inputs]],
+        launches: Sequence[Sequence[Launch]],
+        items: Sequence[int] | None,
+        must: Sequence[bool] | None,
+        timed: bool,
+        deadline_ns: int | None = None,
+        clocked: bool = False,
+    ) -> tuple[int, np.ndarray]:
+        """One pass on the native band threads: the band table (``band_pool.BAND_COLUMNS``)
+        from each band's per-stage launches, its items and must-run flags; returns how
+        many bands ran and the table (each band's thread and, timed, its times)."""
+        pool = self._bands
+        table = np.zeros((len(launches), BAND_COLUMNS), dtype=np.int64)
+        for k, band_launches in enumerate(launches):
+            row = table[k]
+            for s, (dim, ints) in enumerate(band_launches):
+                c = s * STAGE_COLUMNS
+                extents = (dim,) if isinstance(dim, int) else tuple(dim)
+                row[c : c + len(extents)] = extents
+                if len(extents) == 1:
+                    row[c + 1] = 1
+                row[c + 2 : c + 2 + len(ints)] = ints
+        if items is not None:
+            table[:, COL_ITEMS] = items
+        table[:, COL_MUST] = 1 if must is None else must
+        blocks = [self._pack(kernel, inputs, len(launches[0][s][1])) for s, (kernel, inputs) in enumerate(stages)]
         profile = self.profile
-        pool.run(blocks, table, timed=timed or profile is not None)
+        ran = pool.run(blocks, table, timed or clocked or profile is not None, deadline_ns)
         if profile is not None:
-            for k, row in enumerate(table.tolist()):
-                profile.record(kernel.key, row[COL_SLOT], row[COL_WALL_NS] * 1e-9, row[COL_CPU_NS] * 1e-9, k == 0)
-        return (table[:, COL_CPU_NS] * 1e-9).tolist() if timed else None
+            for k, row in enumerate(table[:ran].tolist()):
+                for s, (kernel, _inputs) in enumerate(stages):
+                    wall, cpu = row[COL_WALL_NS + s] * 1e-9, row[COL_CPU_NS + s] * 1e-9
+                    profile.record(kernel.key, row[COL_SLOT], wall, cpu, k == 0)
+        return ran, table
 
     def share_until(
         self, job: Callable[[int, int], None], bands: int, proceed: Callable[[int], bool] | None = None

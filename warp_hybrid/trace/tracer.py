@@ -31,7 +31,6 @@ frame) and read by the caller after the frame, so a frame has no host sync insid
 from __future__ import annotations
 
 import math
-import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -42,7 +41,7 @@ from ..core.features import SceneFeatures
 from ..core.gbuffer import GBuffer
 from ..core.passes import FrameContext, RenderPass
 from ..errors import RenderSettingsError
-from ..parallel import MIN_BAND_ITEMS, BandLaunch, Launcher, band, band_count, group_launch, item_group
+from ..parallel import MIN_BAND_ITEMS, Launcher, StagedBand, band, band_count, group_launch, item_group
 from ..scene.device import DeviceScene
 from ..scene.device.wide_bvh import use_wide_bvh
 from ..timing import StageTimer
@@ -314,44 +313,23 @@ class Tracer(RenderPass):
         shadow_inputs = [scene.gpu, tf, visibility_out, cache]
         path_inputs = [scene.gpu, scene.ambient, tf, color_out]
         bands = ring_bands(ends, band_count(count, self.launcher.threads, MIN_BAND_ITEMS))
-        # per thread: seconds in the shadow and the path kernel, and items traced
-        shadow_s = [0.0] * self.launcher.threads
-        path_s = [0.0] * self.launcher.threads
-        done = [0] * self.launcher.threads
-
-        def mark() -> float:
-            if timer.sync is not None:
-                timer.sync()
-            return time.perf_counter()
-
-        def proceed(k: int) -> bool:
-            first, items, ring = bands[k]
-            if deadline is None or ring == 0:
-                return True
-            traced = sum(done)
-            per_item = (sum(shadow_s) + sum(path_s)) / traced if traced > 0 else 0.0
-            return timer.now() + items * per_item <= deadline
-
-        run_shadow = BandLaunch(self.launcher, shadow, shadow_inputs) if shadow is not None else None
-        run_path = BandLaunch(self.launcher, self.path_kernel, path_inputs)
         group = item_group(self.launcher.device)
-
-        def job(k: int, slot: int) -> None:
-            first, items, _ring = bands[k]
-            t0 = mark()
-            if run_shadow is not None:
-                dim, tail = shadow_launch(self.variant.wide_bvh, first, items)
-                run_shadow(slot, dim, tail, k == 0)
-            t1 = mark()
-            dim, tail = group_launch(first, items, group)
-            run_path(slot, dim, tail, k == 0)
-            t2 = mark()
-            shadow_s[slot] += t1 - t0
-            path_s[slot] += t2 - t1
-            done[slot] += items
-
+        stages = [(shadow, shadow_inputs)] if shadow is not None else []
+        stages.append((self.path_kernel, path_inputs))
+        staged = [
+            StagedBand(
+                (
+                    *((shadow_launch(self.variant.wide_bvh, first, items),) if shadow is not None else ()),
+                    group_launch(first, items, group),
+                ),
+                items,
+                must=ring == 0,
+            )
+            for first, items, ring in bands
+        ]
         start = timer.now()
-        ran = self.launcher.share_until(job, len(bands), proceed)
+        run = self.launcher.launch_staged(stages, staged, timer, deadline)
+        ran = run.ran
         traced = bands[ran - 1][0] + bands[ran - 1][1] if ran > 0 else 0
         self.launcher.launch_slots(
             tally_tiles,
@@ -361,8 +339,8 @@ class Tracer(RenderPass):
         )
         tally.items += traced
         total_ms = (timer.now() - start) * 1000.0
-        busy = sum(shadow_s) + sum(path_s)
-        shadow_ms = total_ms * sum(shadow_s) / busy if busy > 0.0 else 0.0
+        busy = float(run.seconds.sum())
+        shadow_ms = total_ms * float(run.seconds[:, 0].sum()) / busy if busy > 0.0 and shadow is not None else 0.0
         timer.add("trace_shadow", shadow_ms)
         timer.add("trace_secondary", total_ms - shadow_ms)
         return sum(1 for e in ends if e <= traced)

@@ -1,15 +1,16 @@
 """A per-launch profile of the launch layer (``Launcher.profile``): what each kernel and
 each host thread spent, so every speed claim names the kernel it moved.
 
-While a ``LaunchProfile`` is attached, every piece a ``Launcher`` runs (one ``wp.launch``
-of a band of a pass on one host thread, or one ``run`` piece) is timed on its own thread,
-summed by the thread (its *slot*) that ran it: wall
-time with ``time.perf_counter`` (after a device sync on CUDA, so it covers the work)
-and the thread's CPU time with ``time.thread_time`` (a CPU launch runs on the calling
-thread, so this is the kernel's own work, unaffected by other processes sharing the
-cores: the number to compare two versions by on a busy machine).  Profiling adds two
-clock readings per piece and nothing else; without a profile the launch layer reads no
-clock.
+While a ``LaunchProfile`` is attached, every piece a ``Launcher`` runs (one launch of a
+band of a pass on one host thread, or one ``run`` piece) is timed on its own thread,
+summed by the thread (its *slot*) that ran it: wall time (``time.perf_counter``, after a
+device sync on CUDA, so it covers the work; ``CLOCK_MONOTONIC`` on the native band
+threads) and the thread's CPU time (``time.thread_time``, ``CLOCK_THREAD_CPUTIME_ID``
+natively: a CPU launch runs on the calling thread, so this is the kernel's own work,
+unaffected by other processes sharing the cores: the number to compare two versions by
+on a busy machine).  Profiling adds two clock readings per piece and nothing else;
+without a profile the launch layer reads no clock (except for what a pass's caller asks:
+the coverage bands' costs, the tracer's deadline).
 """
 
 from __future__ import annotations

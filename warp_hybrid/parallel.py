@@ -14,11 +14,12 @@ fewer bands, and neighbouring rows stay on one thread (the texels they share sta
 its cache).  On CUDA the same kernel source runs one thread per pixel or item.
 
 Where the platform allows (``band_pool.native_band_pool``: POSIX, Warp's launch bounds as
-expected) a pass's bands (``Launcher.launch_bands``) run on native band threads that stay
-in native code between passes, so a pass costs neither a thread's wake-up nor Python per
-band; elsewhere, and for passes with a Python step per band (the tracer's, which asks
-its deadline before each band: ``share_until``) or Python pieces (``run``), they run on
-a pool of Python threads.
+expected) a pass's bands (``Launcher.launch_bands``, and ``Launcher.launch_staged`` for a
+pass of two kernels a band with a deadline: the tracer's) run on native band threads
+that stay in native code between passes, so a pass costs neither a thread's wake-up nor
+Python per band.  Elsewhere, for a deadline on an injected clock (which only Python can
+read) and for Python pieces (``run``), a pool of Python threads runs them
+(``share_until``, ``BandLaunch``).
 
 Passes whose writes could collide (the visibility buffer) use ``Launcher.run`` with
 one output buffer per piece and merge them afterwards.  ``Launcher.profile`` (a
@@ -103,10 +104,10 @@ class StagedRun:
 # Bands per thread in a CPU pass, and the fewest rows / items a band holds (a launch
 # costs ~20 us of Python, so tiny images and lists are not cut finer than this).
 BANDS_PER_THREAD = 8
-# Bands per thread in a pass whose rows all cost the same and which takes a few ms in
-# all (the log-luminance sums, the tone map): a band's launch is ~35 us of Python taken
-# in turns under the GIL, a fifth of such a pass at 8 bands a thread, and even rows
-# leave little for more bands to balance.
+# Bands per thread on the Python pool in a pass whose rows all cost the same and which
+# takes a few ms in all (the log-luminance sums, the tone map): a band's launch there is
+# ~35 us of Python taken in turns under the GIL, a fifth of such a pass at 8 bands a
+# thread, and even rows leave little for more bands to balance.
 FEW_BANDS_PER_THREAD = 2
 MIN_BAND_ROWS = 4
 MIN_BAND_ITEMS = 256
@@ -249,7 +250,8 @@ class BandLaunch:
 
 
 class Launcher:
-    """Runs the pieces of a pass on a small persistent thread pool."""
+    """Runs the pieces of a pass on a few persistent threads: native band threads where the
+    platform has them (``band_pool``), a pool of Python threads for the rest."""
 
     def __init__(self, device: wp.context.Device | str, threads: int | None = None) -> None:
         """Create a launcher for ``device`` with ``threads`` pieces per pass."""
@@ -329,7 +331,10 @@ class Launcher:
         not per pixel) and the rows go out in bands (module docstring); on CUDA an item
         is one pixel (``cols = 1``), one thread each.  ``rows`` (first, stop): only those
         rows of the ``height`` (default: all of them).  ``bands_per_thread``: how finely
-        the CPU cuts the rows (``FEW_BANDS_PER_THREAD`` for a short pass of even rows).
+        the Python pool cuts the rows (``FEW_BANDS_PER_THREAD`` for a short pass of even
+        rows, where a band's Python would cost more than the balance gains); the native
+        band threads, whose bands cost about a microsecond each, always cut
+        ``BANDS_PER_THREAD``.
         """
         first, stop = (0, height) if rows is None else (max(0, rows[0]), min(height, rows[1]))
         count = stop - first
@@ -340,7 +345,8 @@ class Launcher:
             self.launch(kernel, 0, (count, width), [*inputs, first, 1, 1])
             return
 
-        bands = band_count(count, self.threads, MIN_BAND_ROWS, bands_per_thread)
+        per_thread = BANDS_PER_THREAD if self._bands is not None else bands_per_thread
+        bands = band_count(count, self.threads, MIN_BAND_ROWS, per_thread)
         spans = [band(k, bands, count) for k in range(bands)]
         self.launch_bands(kernel, inputs, [((rows, 1), (first + row0, 1, width)) for row0, rows in spans])
 

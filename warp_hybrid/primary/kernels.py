@@ -215,6 +215,38 @@ def coverage_kernel(
         _cover_triangle(scene, cam, pts, target, tri)
 
 
+@wp.kernel
+def cover_rows_kernel(
+    scene: SceneGPU,
+    cam: CameraGPU,
+    pts: ProjectedPoints,
+    target: RasterTarget,
+    bounds: wp.array2d(dtype=wp.vec3),
+    triangles: int,
+    clusters: int,
+    clear: wp.uint64,
+    row_begin: int,
+    row_end: int,
+):
+    """One launch item, a band of rows of a small scene (or of one thread's whole frame):
+    set rows ``row_begin`` up to ``row_end`` of ``target``'s slot to ``clear``, then
+    rasterize every cluster not culled into those rows only."""
+    band = RasterTarget()
+    band.keys = target.keys
+    band.slot = target.slot
+    band.mode = target.mode
+    band.row_begin = row_begin
+    band.row_end = row_end
+    for y in range(row_begin, row_end):
+        for x in range(target.keys.shape[2]):
+            target.keys[target.slot, y, x] = clear
+    for cluster in range(clusters):
+        if not _box_culled(cam, bounds[cluster, 0], bounds[cluster, 1]):
+            first = cluster * CLUSTER_TRIANGLES
+            for tri in range(first, wp.min(first + CLUSTER_TRIANGLES, triangles)):
+                _cover_triangle(scene, cam, pts, band, tri)
+
+
 @wp.func(inline=True)
 def _write_hit_record(gb: GBufferRows, i: int, tri: int, hit: wp.vec3):
     """Store the hit record (triangle, depth, barycentrics) at flat index ``i``."""

@@ -115,7 +115,7 @@ class Rasterizer(PrimaryVisibility):
         rows: RowSpan | None = None,
     ) -> int:
         """Transform the points, then clear each thread's slice and run the coverage kernel
-        into it: over bands of clusters (``Launcher.share``), or, for fewer than
+        into it: over bands of clusters (``Launcher.launch_bands``), or, for fewer than
         ``MIN_BAND_CLUSTERS`` clusters a thread (and on one thread), every cluster into
         piece k's band of rows, piece k clearing and writing those rows of slice 0 (module
         docstring).  ``rows`` (first, stop): only those rows of the slices are cleared and
@@ -139,16 +139,13 @@ class Rasterizer(PrimaryVisibility):
             return [scene.gpu, camera, pts, target, bounds, count]
 
         if clusters < threads * MIN_BAND_CLUSTERS or threads == 1:
-
-            def clear_and_cover_rows(k: int, n: int) -> None:
-                # one piece, timed whole when profiling (the launch is not timed again)
-                first, size = band(k, n, bottom - top)
-                keys[0, top + first : top + first + size].fill_(clear)
-                if clusters > 0:
-                    piece = inputs(0, (top + first, top + first + size))
-                    wp.launch(kernels.coverage_kernel, dim=clusters, inputs=[*piece, 0, 1], device=launcher.device)
-
-            launcher.run(clear_and_cover_rows, threads)
+            # piece k clears and covers its band of rows of slice 0, every cluster each
+            spans = [band(k, threads, bottom - top) for k in range(threads)]
+            launcher.launch_bands(
+                kernels.cover_rows_kernel,
+                [*inputs(0), clusters, wp.uint64(clear)],
+                [(1, (top + first, top + first + size)) for first, size in spans],
+            )
             return 1
 
         launcher.launch_pixels(

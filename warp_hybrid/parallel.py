@@ -539,16 +539,16 @@ class Launcher:
         from each band's per-stage launches, its items and must-run flags; returns how
         many bands ran and the table (each band's thread and, timed, its times)."""
         pool = self._bands
-        table = np.zeros((len(launches), BAND_COLUMNS), dtype=np.int64)
-        for k, band_launches in enumerate(launches):
-            row = table[k]
+        rows = []  # built as lists: a band's row costs ~1 us, not numpy's ~1 us a slice
+        for band_launches in launches:
+            row = [0] * BAND_COLUMNS
             for s, (dim, ints) in enumerate(band_launches):
                 c = s * STAGE_COLUMNS
-                extents = (dim,) if isinstance(dim, int) else tuple(dim)
-                row[c : c + len(extents)] = extents
-                if len(extents) == 1:
-                    row[c + 1] = 1
+                extents = (dim, 1) if isinstance(dim, int) else (*dim, 1)
+                row[c], row[c + 1] = extents[0], extents[1]
                 row[c + 2 : c + 2 + len(ints)] = ints
+            rows.append(row)
+        table = np.array(rows, dtype=np.int64)
         if items is not None:
             table[:, COL_ITEMS] = items
         table[:, COL_MUST] = 1 if must is None else must

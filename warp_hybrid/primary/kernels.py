@@ -86,6 +86,20 @@ def camera_points_kernel(
             pts.screen[i] = project(cam, c)
 
 
+@wp.func_native(
+    """
+char* row = (char*)keys.data + (size_t)k * keys.strides[0] + (size_t)y * keys.strides[1];
+if (keys.strides[2] == (int)sizeof(uint64_t)) {
+    uint64_t* keys_row = (uint64_t*)row;
+    for (int x = x0; x < x1; ++x) keys_row[x] = value;
+} else {
+    for (int x = x0; x < x1; ++x) *(uint64_t*)(row + (size_t)x * keys.strides[2]) = value;
+}
+"""
+)
+def _fill_keys(keys: wp.array3d(dtype=wp.uint64), k: int, y: int, x0: int, x1: int, value: wp.uint64): ...
+
+
 @wp.kernel
 def clear_keys_kernel(
     keys: wp.array3d(dtype=wp.uint64), value: wp.uint64, top: int, rows: int, row0: int, row_step: int, cols: int
@@ -97,8 +111,7 @@ def clear_keys_kernel(
     v = row0 + r * row_step
     k = v // rows
     y = top + v - k * rows
-    for x in range(c * cols, wp.min(c * cols + cols, keys.shape[2])):
-        keys[k, y, x] = value
+    _fill_keys(keys, k, y, c * cols, wp.min(c * cols + cols, keys.shape[2]), value)
 
 
 @wp.kernel
@@ -193,6 +206,25 @@ def _cover_triangle(scene: SceneGPU, cam: CameraGPU, pts: ProjectedPoints, targe
     raster_clipped(tri, scene, cam, pts, target)
 
 
+@wp.func(inline=True)
+def _cover_cluster(
+    scene: SceneGPU,
+    cam: CameraGPU,
+    pts: ProjectedPoints,
+    target: RasterTarget,
+    bounds: wp.array2d(dtype=wp.vec3),
+    triangles: int,
+    cluster: int,
+):
+    """Rasterize the triangles of ``cluster`` (its box in ``bounds``; ``triangles`` in all)
+    into ``target``, unless the box lies outside the view frustum."""
+    if _box_culled(cam, bounds[cluster, 0], bounds[cluster, 1]):
+        return
+    first = cluster * CLUSTER_TRIANGLES
+    for tri in range(first, wp.min(first + CLUSTER_TRIANGLES, triangles)):
+        _cover_triangle(scene, cam, pts, target, tri)
+
+
 @wp.kernel
 def coverage_kernel(
     scene: SceneGPU,
@@ -207,12 +239,7 @@ def coverage_kernel(
     """Rasterize the triangles of clusters start, start + step, ... (boxes in
     ``bounds``; ``triangles`` in all) into ``target``, skipping clusters outside the
     view frustum."""
-    cluster = start + wp.tid() * step
-    if _box_culled(cam, bounds[cluster, 0], bounds[cluster, 1]):
-        return
-    first = cluster * CLUSTER_TRIANGLES
-    for tri in range(first, wp.min(first + CLUSTER_TRIANGLES, triangles)):
-        _cover_triangle(scene, cam, pts, target, tri)
+    _cover_cluster(scene, cam, pts, target, bounds, triangles, start + wp.tid() * step)
 
 
 @wp.kernel
@@ -238,13 +265,9 @@ def cover_rows_kernel(
     band.row_begin = row_begin
     band.row_end = row_end
     for y in range(row_begin, row_end):
-        for x in range(target.keys.shape[2]):
-            target.keys[target.slot, y, x] = clear
+        _fill_keys(target.keys, target.slot, y, 0, target.keys.shape[2], clear)
     for cluster in range(clusters):
-        if not _box_culled(cam, bounds[cluster, 0], bounds[cluster, 1]):
-            first = cluster * CLUSTER_TRIANGLES
-            for tri in range(first, wp.min(first + CLUSTER_TRIANGLES, triangles)):
-                _cover_triangle(scene, cam, pts, band, tri)
+        _cover_cluster(scene, cam, pts, band, bounds, triangles, cluster)
 
 
 @wp.func(inline=True)

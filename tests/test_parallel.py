@@ -3,6 +3,7 @@ shares the bands of a pass among its threads by who is free."""
 
 from __future__ import annotations
 
+import os
 import threading
 
 import numpy as np
@@ -20,6 +21,7 @@ from warp_hybrid.parallel import (
     StagedBand,
     band,
     band_count,
+    default_thread_count,
     group_launch,
     item_group,
 )
@@ -545,3 +547,19 @@ def test_an_injected_clock_decides_the_deadline_on_the_python_threads() -> None:
             10.0,
         )
     assert run.ran == bands
+
+
+def test_default_threads_follow_the_cpus_this_process_may_run_on(monkeypatch: pytest.MonkeyPatch) -> None:
+    """One thread a CPU of the process's affinity (not the machine's count), at most 8;
+    ``WARP_HYBRID_THREADS`` overrides it."""
+    cpu = wp.get_device("cpu")
+    monkeypatch.delenv("WARP_HYBRID_THREADS", raising=False)
+    monkeypatch.setattr(os, "cpu_count", lambda: 64)
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {5}, raising=False)
+    assert default_thread_count(cpu) == 1
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: set(range(3)), raising=False)
+    assert default_thread_count(cpu) == 3
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: set(range(64)), raising=False)
+    assert default_thread_count(cpu) == 8
+    monkeypatch.setenv("WARP_HYBRID_THREADS", "2")
+    assert default_thread_count(cpu) == 2

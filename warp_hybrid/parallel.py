@@ -193,7 +193,10 @@ def group_launch(first: int, items: int, group: int) -> tuple[int, tuple[int, in
 
 
 def default_thread_count(device: wp.context.Device) -> int:
-    """Host threads to launch from: the CPU count on a CPU device, 1 on a GPU.
+    """Host threads to launch from: on a CPU device the CPUs this process may run on (its
+    affinity, where the platform tells it: a container or ``taskset`` may allow fewer
+    than the machine has, and a band thread spinning on a CPU it shares would slow the
+    caller), at most 8; 1 on a GPU.
 
     ``WARP_HYBRID_THREADS`` overrides it (benchmarks use it to compare 1 vs 2).
     """
@@ -202,7 +205,8 @@ def default_thread_count(device: wp.context.Device) -> int:
         return max(1, int(env))
     if device.is_cuda:
         return 1
-    return max(1, min(os.cpu_count() or 1, 8))
+    cpus = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    return max(1, min(cpus or 1, 8))
 
 
 class BandLaunch:

@@ -4,7 +4,8 @@
 focus window, or every pixel for ``--mode full``) and writes, for each listed pixel,
 the fully traced linear radiance and the per-light visibility AOV.  The work is
 proportional to the list's length.  The list is cut into bands shared by the
-launcher's threads (``Launcher.share_until``); a thread runs both kernels on a band, one
+launcher's threads as one pass of two stages (``Launcher.launch_staged``: on the native
+band threads, the deadline asked natively); a thread runs both kernels on a band, one
 after the other:
 
 * the shadow kernel: shadow rays from the primary points (RGB transmittance per light;

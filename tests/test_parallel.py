@@ -563,3 +563,22 @@ def test_default_threads_follow_the_cpus_this_process_may_run_on(monkeypatch: py
     assert default_thread_count(cpu) == 8
     monkeypatch.setenv("WARP_HYBRID_THREADS", "2")
     assert default_thread_count(cpu) == 2
+
+
+def test_native_bands_switch_off_and_on() -> None:
+    """A launcher with native band threads runs its passes on the Python pool while they
+    are switched off, and on them again after (every pixel once each time); one without
+    them refuses to switch on."""
+    height, width = 48, 9
+    out = wp.zeros((height, width), dtype=wp.int32, device="cpu")
+    cols = wp.zeros((height, width), dtype=wp.int32, device="cpu")
+    with Launcher("cpu", 2) as launcher:
+        assert launcher.native_bands == band_pool.layout_matches()
+        if launcher.native_bands:
+            for on in (False, True):
+                launcher.native_bands = on
+                assert launcher.native_bands == on
+                launcher.launch_pixels(_count_pixels, height, width, [out, cols])
+            np.testing.assert_array_equal(out.numpy(), np.full((height, width), 2, np.int32))
+    with Launcher("cpu", 1) as one, pytest.raises(ValueError, match="no native band threads"):
+        one.native_bands = True

@@ -262,7 +262,8 @@ class Launcher:
         self.device = wp.get_device(device)
         self.threads = threads if threads is not None else default_thread_count(self.device)
         self._pool = ThreadPoolExecutor(max_workers=self.threads - 1) if self.threads > 1 else None
-        self._bands = native_band_pool(self.device, self.threads)
+        self._pool_bands = native_band_pool(self.device, self.threads)
+        self._bands = self._pool_bands  # None while the Python pool runs the bands
         self._loaded: set[int] = set()
         self.profile: LaunchProfile | None = None
 
@@ -271,9 +272,25 @@ class Launcher:
         if self._pool is not None:
             self._pool.shutdown(wait=True)
             self._pool = None
-        if self._bands is not None:
-            self._bands.close()
-            self._bands = None
+        if self._pool_bands is not None:
+            self._pool_bands.close()
+            self._pool_bands = self._bands = None
+
+    @property
+    def native_bands(self) -> bool:
+        """Whether the bands of a pass run on the native band threads (``band_pool``):
+        True where the platform has them, until set False (benchmarks compare the two,
+        ``scripts/bench_bands.py``); then the Python pool runs them, as on a platform
+        without them."""
+        return self._bands is not None
+
+    @native_bands.setter
+    def native_bands(self, on: bool) -> None:
+        if on and self._pool_bands is None:
+            raise ValueError("no native band threads here (CUDA, one thread, closed, or not this platform)")
+        if not on and self._pool_bands is not None:
+            self._pool_bands.nap()
+        self._bands = self._pool_bands if on else None
 
     def __enter__(self) -> Launcher:
         return self
@@ -308,8 +325,8 @@ class Launcher:
         piece runs before any exception propagates."""
         if n <= 1 or self._pool is None:
             return [piece(k, n) for k in range(n)]
-        if self._bands is not None:
-            self._bands.nap()  # the pool threads need the cores the band threads spin on
+        if self._pool_bands is not None:
+            self._pool_bands.nap()  # the pool threads need the cores the band threads spin on
         futures = [self._pool.submit(piece, k, n) for k in range(1, n)]
         try:
             first = piece(0, n)

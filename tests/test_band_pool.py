@@ -157,3 +157,15 @@ def test_the_board_holds_bands_up_to_its_limit() -> None:
             pool.run([[]], np.zeros((band_pool.MAX_BANDS + 1, BAND_COLUMNS), dtype=np.int64))
         with pytest.raises(ValueError, match="threads"):
             BandPool(wp.get_device("cpu"), band_pool.MAX_THREADS + 1)
+
+
+def test_a_pool_collected_without_closing_stops_its_helpers() -> None:
+    import gc
+
+    before = {t for t in threading.enumerate() if t.name.startswith("warp-hybrid-band-")}
+    pool = BandPool(wp.get_device("cpu"), 2)
+    started = {t for t in threading.enumerate() if t.name.startswith("warp-hybrid-band-")} - before
+    assert len(started) == 1
+    del pool
+    gc.collect()
+    assert not any(t.is_alive() for t in started)

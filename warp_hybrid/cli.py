@@ -220,7 +220,10 @@ def _add_frame_arguments(p: argparse.ArgumentParser, window_help: str, window_de
     p.add_argument("--tonemap", choices=TONEMAPS, default=defaults.tonemap, help="tone mapping operator")
     p.add_argument("--no-aa", dest="antialias", action="store_false", help="turn the FXAA post pass off")
     p.add_argument(
-        "--threads", type=int, default=defaults.threads, help="host threads per pass (default: one per CPU this process may run on, at most 8)"
+        "--threads",
+        type=int,
+        default=defaults.threads,
+        help="host threads per pass (default: one per CPU this process may run on, at most 8)",
     )
     p.add_argument(
         "--spp",

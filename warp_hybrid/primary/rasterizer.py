@@ -14,9 +14,11 @@
   the threads (bands of clusters, cut where the last frame's clusters cost the most
   time: ``parallel.CostBands``) unless there are fewer than ``MIN_BAND_CLUSTERS`` a
   thread (a small scene, whose few large triangles cost their pixels, not their set-up):
-  then each thread takes every cluster and one band of the rows, clearing and covering
-  only its own rows of the first slice (the bands never meet, so one slice serves them
-  all and the resolve reads one key a pixel).
+  then the rows are cut into one band a thread and each band clears and covers, with
+  every cluster, only its own rows of the first slice (``kernels.cover_rows_kernel``,
+  one launch item a band; the bands never meet, so one slice serves them all and the
+  resolve reads one key a pixel).  Every pass here, the slices' clear included
+  (``kernels.clear_keys_kernel``), is a band pass of the launcher (``parallel``).
 * ``resolve``: per pixel, the winning triangle is intersected with the pixel's camera
   ray for exact depth and barycentrics: the hit record (``kernels.resolve_kernel``),
   the same one the ray-cast path writes.

@@ -169,3 +169,13 @@ def test_a_pool_collected_without_closing_stops_its_helpers() -> None:
     del pool
     gc.collect()
     assert not any(t.is_alive() for t in started)
+
+
+def test_the_probe_pass_passes_here_and_a_failed_probe_falls_back(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The probe pass writes what ``wp.launch`` would on this Warp; where it would not, the
+    launcher gets no native band threads, with a warning, and its passes still run."""
+    with BandPool(wp.get_device("cpu"), 2) as pool:
+        assert band_pool.probe_pool(pool)
+    monkeypatch.setattr(band_pool, "probe_pool", lambda pool: False)
+    with pytest.warns(RuntimeWarning, match="native band threads disabled"):
+        assert band_pool.native_band_pool(wp.get_device("cpu"), 2) is None

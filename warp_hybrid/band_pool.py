@@ -43,6 +43,7 @@ import ctypes
 import os
 import threading
 import time
+import warnings
 import weakref
 from collections.abc import Sequence
 from typing import Any
@@ -301,6 +302,13 @@ def _quit_kernel(board: wp.array(dtype=wp.int64)):
     _quit_workers(board)
 
 
+@wp.kernel
+def _probe_kernel(out: wp.array2d(dtype=wp.int32), first: int, value: int):
+    """``probe_pool``'s pass: row ``first + r``, column c gets ``value + 10 r + c``."""
+    r, c = wp.tid()
+    out[first + r, c] = value + 10 * r + c
+
+
 def layout_matches() -> bool:
     """Whether this platform can run native band threads: POSIX threads and clocks, and
     Warp's one- and two-dimensional launch bounds laid out as the native loop writes them
@@ -507,10 +515,39 @@ class BandPool:
         return int(host[RAN])
 
 
+def probe_pool(pool: BandPool) -> bool:
+    """Whether ``pool`` runs a pass as Warp would: a two-dimensional kernel over two bands
+    of different shapes, each with its own trailing integers, writes exactly what
+    ``wp.launch`` would (a check of Warp's CPU entry point and argument packing, which
+    ``layout_matches`` cannot see)."""
+    out = wp.full((3, 4), -1, dtype=wp.int32, device=pool.device)
+    wp.load_module(_probe_kernel.module, device=pool.device)
+    block = PackedKernel.pack(_probe_kernel, pool.device, [out], 2)
+    bands = np.zeros((2, BAND_COLUMNS), dtype=np.int64)
+    bands[0, :4] = (2, 4, 0, 7)
+    bands[1, :4] = (1, 3, 2, 900)
+    ran = pool.run([[block, *(block.copy() for _ in range(1, pool.threads))]], bands)
+    expected = np.full((3, 4), -1, np.int32)
+    expected[:2] = 7 + 10 * np.arange(2)[:, None] + np.arange(4)[None, :]
+    expected[2, :3] = 900 + np.arange(3)
+    return ran == 2 and np.array_equal(out.numpy(), expected)
+
+
 def native_band_pool(device: wp.context.Device, threads: int) -> BandPool | None:
     """Native band threads for ``threads`` threads on ``device``: None on CUDA, on one
-    thread, beyond ``MAX_THREADS`` or where ``layout_matches`` fails (the caller then
-    uses Python threads)."""
+    thread, beyond ``MAX_THREADS``, or where ``layout_matches`` or ``probe_pool`` fails
+    (with a warning: this Warp packs or calls kernels otherwise; the caller then uses
+    Python threads)."""
     if device.is_cuda or not 1 < threads <= MAX_THREADS or not layout_matches():
         return None
-    return BandPool(device, threads)
+    pool = BandPool(device, threads)
+    if not probe_pool(pool):
+        pool.close()
+        warnings.warn(
+            f"warp-hybrid: native band threads disabled (Warp {wp.config.version} ran the probe pass otherwise); "
+            "passes run on Python threads",
+            RuntimeWarning,
+            stacklevel=2,
+        )
+        return None
+    return pool

@@ -2,7 +2,7 @@
 each host thread spent, so every speed claim names the kernel it moved.
 
 While a ``LaunchProfile`` is attached, every piece a ``Launcher`` runs (one launch of a
-band of a pass on one host thread, or one ``run`` piece) is timed on its own thread,
+band of a pass on one host thread) is timed on its own thread,
 summed by the thread (its *slot*) that ran it: wall time (``time.perf_counter``, after a
 device sync on CUDA, so it covers the work; ``CLOCK_MONOTONIC`` on the native band
 threads) and the thread's CPU time (``time.thread_time``, ``CLOCK_THREAD_CPUTIME_ID``
@@ -16,16 +16,13 @@ the coverage bands' costs, the tracer's deadline).
 from __future__ import annotations
 
 import threading
-import time
 from collections import defaultdict
-from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
 
 
 @dataclass
 class KernelTimes:
-    """One kernel's (or run piece's) launches and time, in total and per thread slot."""
+    """One kernel's launches and time, in total and per thread slot."""
 
     launches: int = 0
     ms: float = 0.0
@@ -60,13 +57,6 @@ class LaunchProfile:
             k.piece_ms[slot] += seconds * 1000.0
             if (slot == 0) if first is None else first:
                 k.launches += 1
-
-    def timed(self, name: str, piece: int, fn: Callable[..., Any], *args: Any) -> Any:
-        """Call ``fn(*args)`` on this thread and record it as ``name``'s piece ``piece``."""
-        start, cpu = time.perf_counter(), time.thread_time()
-        result = fn(*args)
-        self.record(name, piece, time.perf_counter() - start, time.thread_time() - cpu)
-        return result
 
     def rows(self, frames: int = 1) -> list[dict[str, float | str]]:
         """Per kernel, slowest first: launches and ms per frame (the busiest thread's

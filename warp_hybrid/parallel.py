@@ -17,12 +17,11 @@ Where the platform allows (``band_pool.native_band_pool``: POSIX, Warp's launch 
 expected) a pass's bands (``Launcher.launch_bands``, and ``Launcher.launch_staged`` for a
 pass of two kernels a band with a deadline: the tracer's) run on native band threads
 that stay in native code between passes, so a pass costs neither a thread's wake-up nor
-Python per band.  Elsewhere, for a deadline on an injected clock (which only Python can
-read) and for Python pieces (``run``), a pool of Python threads runs them
-(``share_until``, ``BandLaunch``).
+Python per band.  Elsewhere, and for a deadline on an injected clock (which only Python
+can read), a pool of Python threads runs them (``share_until``, ``BandLaunch``).
 
-Passes whose writes could collide (the visibility buffer) use ``Launcher.run`` with
-one output buffer per piece and merge them afterwards.  ``Launcher.profile`` (a
+Passes whose writes could collide (the visibility buffer) give each thread slot its own
+output (inputs given per slot) and merge afterwards.  ``Launcher.profile`` (a
 ``launch_profile.LaunchProfile``, None by default) times every band by kernel and by
 the thread that ran it.
 """
@@ -304,19 +303,6 @@ class Launcher:
         if key not in self._loaded:
             wp.load_module(kernel.module, device=self.device)
             self._loaded.add(key)
-
-    def run(self, piece: Callable[[int, int], Any], pieces: int | None = None) -> list[Any]:
-        """Call ``piece(k, n)`` for k in 0..n-1, in parallel threads; return results
-        (timed under the piece's name when profiling).
-
-        Exceptions from any piece propagate to the caller.
-        """
-        n = self.threads if pieces is None else pieces
-        profile = self.profile
-        if profile is None:
-            return self._map(piece, n)
-        name = getattr(piece, "__qualname__", "run")
-        return self._map(lambda k, count: profile.timed(name, k, piece, k, count), n)
 
     def _map(self, piece: Callable[[int, int], Any], n: int) -> list[Any]:
         """``piece(k, n)`` for k in 0..n-1: piece 0 on the calling thread, the others on

@@ -508,11 +508,13 @@ class Launcher:
 
         def job(k: int, slot: int) -> None:
             band = bands[k]
+            last = now()  # one clock reading before the band and one after each stage
             for s, (run, (dim, tail)) in enumerate(zip(runs, band.launches, strict=True)):
-                start, start_cpu = now(), time.thread_time() if cpu else 0.0
+                start_cpu = time.thread_time() if cpu else 0.0
                 if _launch_size(dim) > 0:
                     run(slot, dim, tail, k == 0)
-                seconds[k, s] = now() - start
+                reading = now()
+                seconds[k, s], last = reading - last, reading
                 if cpu:
                     cpu_seconds[k, s] = time.thread_time() - start_cpu
             slots[k] = slot

@@ -467,12 +467,15 @@ class Launcher:
             return StagedRun(0, [], np.zeros((0, len(stages))), np.zeros((0, len(stages))))
         for kernel, _inputs in stages:
             self.ensure_loaded(kernel)
-        native_clock = deadline is None or (timer is not None and timer.clock is perf_clock and timer.sync is None)
-        if self._bands is not None and native_clock and MONOTONIC_PERF_COUNTER:
+        native_clock = deadline is None or (
+            MONOTONIC_PERF_COUNTER and timer is not None and timer.clock is perf_clock and timer.sync is None
+        )
+        if self._bands is not None and native_clock:
             deadline_ns = None if deadline is None else _deadline_ns(deadline)
             items = [b.items for b in bands]
             must = [b.must for b in bands]
-            ran, table = self._native_pass(stages, [b.launches for b in bands], items, must, cpu, deadline_ns, True)
+            # timed: the run reports every stage's wall seconds
+            ran, table = self._native_pass(stages, [b.launches for b in bands], items, must, True, deadline_ns)
             n = len(stages)
             return StagedRun(
                 ran,
@@ -542,7 +545,6 @@ class Launcher:
         must: Sequence[bool] | None,
         timed: bool,
         deadline_ns: int | None = None,
-        clocked: bool = False,
     ) -> tuple[int, np.ndarray]:
         """One pass on the native band threads: the band table (``band_pool.BAND_COLUMNS``)
         from each band's per-stage launches, its items and must-run flags; returns how
@@ -563,7 +565,7 @@ class Launcher:
         table[:, COL_MUST] = 1 if must is None else must
         blocks = [self._pack(kernel, inputs, len(launches[0][s][1])) for s, (kernel, inputs) in enumerate(stages)]
         profile = self.profile
-        ran = pool.run(blocks, table, timed or clocked or profile is not None, deadline_ns)
+        ran = pool.run(blocks, table, timed or profile is not None, deadline_ns)
         if profile is not None:
             for k, row in enumerate(table[:ran].tolist()):
                 for s, (kernel, _inputs) in enumerate(stages):

@@ -124,7 +124,6 @@ class Rasterizer(PrimaryVisibility):
         covered.  Returns how many slices, from the first, were written (the others are
         untouched)."""
         launcher = self.launcher
-        launcher.ensure_loaded(kernels.coverage_kernel)
         count = scene.scene.triangle_count
         pts = self._transform_points(scene, camera)
         threads, height, width = keys.shape

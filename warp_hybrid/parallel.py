@@ -493,10 +493,20 @@ class Launcher:
         deadline: float | None,
         cpu: bool,
     ) -> StagedRun:
-        """``launch_staged`` on the Python pool (``share_until``), timed on ``timer``'s
-        clock (``timing.perf_clock`` without one)."""
+        """``launch_staged`` on the Python pool (``share_until``): the deadline asked on
+        ``timer``'s clock (``timing.perf_clock`` without one), the stages' wall seconds
+        on the real clock after the timer's device sync, as the tracer has always timed
+        its bands (an injected clock is then read only in band order, under the lock,
+        whatever the threads' interleaving)."""
         runs = [BandLaunch(self, kernel, inputs) for kernel, inputs in stages]
         now = timer.now if timer is not None else perf_clock
+        sync = timer.sync if timer is not None else None
+
+        def mark() -> float:
+            if sync is not None:
+                sync()
+            return time.perf_counter()
+
         seconds = np.zeros((len(bands), len(stages)))
         cpu_seconds = np.zeros((len(bands), len(stages)))
         slots = [0] * len(bands)
@@ -511,12 +521,12 @@ class Launcher:
 
         def job(k: int, slot: int) -> None:
             band = bands[k]
-            last = now()  # one clock reading before the band and one after each stage
+            last = mark()  # one reading before the band and one after each stage
             for s, (run, (dim, tail)) in enumerate(zip(runs, band.launches, strict=True)):
                 start_cpu = time.thread_time() if cpu else 0.0
                 if _launch_size(dim) > 0:
                     run(slot, dim, tail, k == 0)
-                reading = now()
+                reading = mark()
                 seconds[k, s], last = reading - last, reading
                 if cpu:
                     cpu_seconds[k, s] = time.thread_time() - start_cpu

@@ -31,18 +31,56 @@ from ..core.native_rows import CHUNK_CPP, row_cpp
 from ..core.scene_gpu import FLAG_TRANSMISSIVE, AmbientGPU, SceneGPU
 from .native_math import cpp
 
-# (2) the view direction and the diffuse colour of the chunk's pixels, then (3) every
-# light's term summed into dr, dg, db.
-_LIGHTS_CPP = """
-    for (int j = 0; j < n; ++j) {
+#: (1) the lane arrays of a chunk: point, normal, view direction, albedo, diffuse colour,
+#: specular colour, optics, the light's sum and one light's term, material flags.
+LANE_ARRAYS_CPP = """float px[CHUNK], py[CHUNK], pz[CHUNK], nx[CHUNK], ny[CHUNK], nz[CHUNK], vx[CHUNK], vy[CHUNK], vz[CHUNK];
+float ar[CHUNK], ag[CHUNK], ab[CHUNK], kr[CHUNK], kg[CHUNK], kb[CHUNK], fr[CHUNK], fg[CHUNK], fb[CHUNK];
+float rough[CHUNK], opac[CHUNK], ior[CHUNK], dr[CHUNK], dg[CHUNK], db[CHUNK], cr[CHUNK], cg[CHUNK], cb[CHUNK];
+int flags[CHUNK];"""
+
+
+def lane_fill_cpp(position: str, normal: str, albedo: str, specular: str, optics: str, material: str) -> str:
+    """C++ of (1) for lane ``j``: its G-buffer channels (C++ expressions of the pixel's
+    point, normal, albedo, specular colour, optics record and material id) into the lane
+    arrays, and its material's flags (0 without one)."""
+    return f"""        const wp::vec3 p = {position}, nn = {normal}, a = {albedo}, f = {specular};
+        px[j] = p[0]; py[j] = p[1]; pz[j] = p[2];
+        nx[j] = nn[0]; ny[j] = nn[1]; nz[j] = nn[2];
+        ar[j] = a[0]; ag[j] = a[1]; ab[j] = a[2];
+        fr[j] = f[0]; fg[j] = f[1]; fb[j] = f[2];
+        rough[j] = {optics}.roughness;
+        opac[j] = {optics}.opacity;
+        ior[j] = {optics}.ior;
+        const int mid = {material};
+        flags[j] = mid >= 0 ? scene.materials.data[mid].flags : 0;"""
+
+
+# (2) the view direction and the diffuse colour of the chunk's pixels (``kd``: the C++
+# expression of the diffuse colour, given ``nn``, ``v`` and the lane arrays), the sums zeroed.
+def view_cpp(kd: str) -> str:
+    """C++ of step (2) with the diffuse colour ``kd``."""
+    return f"""
+    for (int j = 0; j < n; ++j) {{
         const wp::vec3 nn(nx[j], ny[j], nz[j]);
         const wp::vec3 v = wh_normalize(wp::sub(eye, wp::vec3(px[j], py[j], pz[j])));
-        const wp::vec3 kd = wh_diffuse_albedo(false, dome, nn, v, wp::vec3(ar[j], ag[j], ab[j]), opac[j], ior[j],
-                                              flags[j]);
+        const wp::vec3 kd = {kd};
         vx[j] = v[0]; vy[j] = v[1]; vz[j] = v[2];
         kr[j] = kd[0]; kg[j] = kd[1]; kb[j] = kd[2];
         dr[j] = 0.0f; dg[j] = 0.0f; db[j] = 0.0f;
-    }
+    }}
+"""
+
+
+#: The deferred pass's diffuse colour (``shading.diffuse_albedo``).
+RASTER_KD_CPP = "wh_diffuse_albedo(false, dome, nn, v, wp::vec3(ar[j], ag[j], ab[j]), opac[j], ior[j], flags[j])"
+
+
+# (3) every light ``lights_begin`` .. ``lights_end - 1``: its term into cr, cg, cb, then
+# ``accumulate`` (C++ of a loop over the lanes) adds it to dr, dg, db.
+def light_loop_cpp(accumulate: str) -> str:
+    """C++ of step (3), each light's term summed by ``accumulate``."""
+    return (
+        """
     for (int li = lights_begin; li < lights_end; ++li) {
         const auto light = scene.lights.data[li];
         const bool has_cone = wh_has_cone(light);
@@ -78,11 +116,20 @@ _LIGHTS_CPP = """
         } else {
             for (int j = 0; j < n; ++j) lane(-1, WH_RECT_ANY, j);
         }
-        for (int j = 0; j < n; ++j) {
-            dr[j] += cr[j]; dg[j] += cg[j]; db[j] += cb[j];
-        }
+"""
+        + accumulate
+        + """
     }
 """
+    )
+
+
+#: The unshadowed sum: each light's term added as it is.
+_UNSHADOWED_SUM_CPP = """
+        for (int j = 0; j < n; ++j) {
+            dr[j] += cr[j]; dg[j] += cg[j]; db[j] += cb[j];
+        }"""
+_LIGHTS_CPP = view_cpp(RASTER_KD_CPP) + light_loop_cpp(_UNSHADOWED_SUM_CPP)
 
 # (4) of ``lit_span``: what the dome gives each pixel of the chunk, then its radiance.
 # Under a direction-free dome (``ambient.direction_free``) one irradiance ``e_free`` and
@@ -212,24 +259,12 @@ const auto optics = (decltype(gb.optics.data))((char*)gb.optics.data + (size_t)y
 wp::vec3* out = {row_cpp("target", "y", "wp::vec3", const=False)};
 const bool dome = scene.environment.enabled != 0;
 const wp::vec3 eye = cam.origin;
-float px[CHUNK], py[CHUNK], pz[CHUNK], nx[CHUNK], ny[CHUNK], nz[CHUNK], vx[CHUNK], vy[CHUNK], vz[CHUNK];
-float ar[CHUNK], ag[CHUNK], ab[CHUNK], kr[CHUNK], kg[CHUNK], kb[CHUNK], fr[CHUNK], fg[CHUNK], fb[CHUNK];
-float rough[CHUNK], opac[CHUNK], ior[CHUNK], dr[CHUNK], dg[CHUNK], db[CHUNK], cr[CHUNK], cg[CHUNK], cb[CHUNK];
-int flags[CHUNK];{lit_rows}
+{LANE_ARRAYS_CPP}{lit_rows}
 for (int xs = x0; xs < x1; xs += CHUNK) {{
     const int n = x1 - xs < CHUNK ? x1 - xs : CHUNK;
     for (int j = 0; j < n; ++j) {{
         const int x = xs + j;
-        const wp::vec3 p = position[x], nn = normal[x], a = albedo[x], f = specular[x];
-        px[j] = p[0]; py[j] = p[1]; pz[j] = p[2];
-        nx[j] = nn[0]; ny[j] = nn[1]; nz[j] = nn[2];
-        ar[j] = a[0]; ag[j] = a[1]; ab[j] = a[2];
-        fr[j] = f[0]; fg[j] = f[1]; fb[j] = f[2];
-        rough[j] = optics[x].roughness;
-        opac[j] = optics[x].opacity;
-        ior[j] = optics[x].ior;
-        const int mid = material[x];
-        flags[j] = mid >= 0 ? scene.materials.data[mid].flags : 0;{lit_gather}
+{lane_fill_cpp("position[x]", "normal[x]", "albedo[x]", "specular[x]", "optics[x]", "material[x]")}{lit_gather}
     }}
 {_LIGHTS_CPP}{store}}}
 """

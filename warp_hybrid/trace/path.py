@@ -4,7 +4,8 @@
 ``parallel.group_launch``: on the CPU a launch item takes a group of consecutive items;
 each item writes only its own pixel and its own row of the scratch arrays).  Per pixel,
 the primary point from the G-buffer is shaded with the transmittances the shadow
-kernel left (``shadows.py``), then an iterative path of reflection and refraction rays
+kernel left (``shadows.py``; the lights' sum over them computed for the launch item's
+whole group at once, vectorised across its pixels: ``primary_light.py``), then an iterative path of reflection and refraction rays
 (no recursion) whose hits are shaded the same way, with their own shadow rays.  A
 secondary hit reads its textures' mip chains over its pixel's ray cone (``cone.py``),
 as the G-buffer reads them over the pixel's footprint.
@@ -60,6 +61,7 @@ from .cone import cone_footprint
 from .occluders import OccluderGPU
 from .offset import hit_bound, offset_ray_origin
 from .optics import make_transmission_func, mirror_direction, transmission_tint
+from .primary_light import GroupDirect, primary_direct
 from .rays import MAX_LAYERS, MIN_THROUGHPUT, RayHit, TraceFrame, max3, step_past
 from .shadows import make_light_func
 from .variant import TraceVariant
@@ -227,10 +229,12 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
         depth: int,
         cone_length: float,
         can_push: bool,
+        primary_direct: wp.vec3,
     ) -> HitShading:
         """Shade hit ``h`` seen along ``d`` with path ``weight`` at ``depth``,
         ``cone_length`` from the camera along the path (what its rays carry on); segment
-        0 (the primary point) takes the shadow kernel's transmittances, a secondary hit
+        0 (the primary point) takes ``primary_direct``, its lights' sum over the shadow
+        kernel's transmittances (``primary_light.primary_direct``), a secondary hit
         traces its shadow rays from its triangle's ``offset.hit_bound`` ``bound``.  The
         continuation rays start at ``h.position`` itself: the caller moves them off the
         surface (``leaving_origin``).  Two branches split only when ``can_push`` (room on
@@ -259,19 +263,20 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
             kd = diffuse_albedo(scene, n, v, h.albedo, h.opacity, h.ior, h.flags)
         direct = wp.vec3(0.0, 0.0, 0.0)
         if wp.static(shadows):
-            for i in range(scene.light_count):
-                ls = light_sample(scene.lights[i], h.position, n)
-                c = light_response(ls, n, v, kd, h.specular, h.roughness)
-                tr = wp.vec3(0.0, 0.0, 0.0)
-                if segment == 0:
-                    tr = tf.transmittance[item, i]
-                elif max3(wp.cw_mul(weight, c)) >= MIN_THROUGHPUT * INV_PI * max3(ls.e_normal):
-                    r = light_transmittance(
-                        scene, tf.params, tf.occ, i, ls, h.position, n, ng, bound, transmissive, pixel, segment
-                    )
-                    tr = r.transmittance
-                    out.shadow_rays += r.rays
-                direct += wp.cw_mul(c, tr)
+            if segment == 0:
+                direct = primary_direct
+            else:
+                for i in range(scene.light_count):
+                    ls = light_sample(scene.lights[i], h.position, n)
+                    c = light_response(ls, n, v, kd, h.specular, h.roughness)
+                    tr = wp.vec3(0.0, 0.0, 0.0)
+                    if max3(wp.cw_mul(weight, c)) >= MIN_THROUGHPUT * INV_PI * max3(ls.e_normal):
+                        r = light_transmittance(
+                            scene, tf.params, tf.occ, i, ls, h.position, n, ng, bound, transmissive, pixel, segment
+                        )
+                        tr = r.transmittance
+                        out.shadow_rays += r.rays
+                    direct += wp.cw_mul(c, tr)
         if not traced:
             c = h.emission + direct
             if wp.static(ambient):
@@ -363,9 +368,16 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
         return out
 
     @wp.func(inline=True)
-    def trace_item(scene: SceneGPU, amb: AmbientGPU, tf: TraceFrame, color: wp.array2d(dtype=wp.vec3), item: int):
+    def trace_item(
+        scene: SceneGPU,
+        amb: AmbientGPU,
+        tf: TraceFrame,
+        color: wp.array2d(dtype=wp.vec3),
+        item: int,
+        primary_direct: wp.vec3,
+    ):
         """The traced radiance of list item ``item``'s pixel into ``color``, its ray counts
-        into ``tf.counts``."""
+        into ``tf.counts``; ``primary_direct``: the lights' sum at its primary point."""
         xy = listed_pixel(tf.pixels, item, tf.cam.width, tf.cam.height)
         x = xy[0]
         y = xy[1]
@@ -411,7 +423,22 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
             if have_hit != 0:
                 have_hit = 0
                 can_push = stack_size < wp.static(MAX_DEPTH)
-                s = shade_hit(scene, amb, tf, item, pixel, segment, h, bound, d, weight, depth, cone_length, can_push)
+                s = shade_hit(
+                    scene,
+                    amb,
+                    tf,
+                    item,
+                    pixel,
+                    segment,
+                    h,
+                    bound,
+                    d,
+                    weight,
+                    depth,
+                    cone_length,
+                    can_push,
+                    primary_direct,
+                )
                 if segment == 0 and (s.next.kind != KIND_NONE or s.pushed.kind != KIND_NONE):
                     bound = hit_bound(scene, face)  # only now: the corners are a random fetch
                 segment += 1
@@ -476,7 +503,11 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
         group: int,
     ):
         first = start + wp.tid() * group
-        for item in range(first, wp.min(first + group, stop)):
-            trace_item(scene, amb, tf, color, item)
+        last = wp.min(first + group, stop)
+        direct = GroupDirect()
+        if wp.static(shadows):
+            direct = primary_direct(scene, tf, first, last, transparency)
+        for item in range(first, last):
+            trace_item(scene, amb, tf, color, item, direct[item - first])
 
     return trace_path

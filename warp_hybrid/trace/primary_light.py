@@ -65,8 +65,9 @@ const int lights_begin = 0;
 const int lights_end = scene.light_count;
 wp::mat_t<{ITEM_GROUP}, 3, float> out;
 {LANE_ARRAYS_CPP}
-for (int xs = first; xs < stop; xs += CHUNK) {{
-    const int n = stop - xs < CHUNK ? stop - xs : CHUNK;
+const int end = stop - first < {ITEM_GROUP} ? stop : first + {ITEM_GROUP};  // (never more rows than ``out`` has)
+for (int xs = first; xs < end; xs += CHUNK) {{
+    const int n = end - xs < CHUNK ? end - xs : CHUNK;
     for (int j = 0; j < n; ++j) {{
         // (an entry outside the image reads pixel 0: its value is not used)
         const int listed = tf.pixels.data[xs + j];

@@ -18,7 +18,9 @@ the SH irradiance at each normal and the lat-long uvs each pixel reads vectorise
 only the texel reads (the prefiltered mip chain, the dome behind glass, the background)
 lane by lane; then ``wh_surface_radiance`` with the split-sum ``wh_env_brdf`` across
 pixels again.  The same lambdas as the scalar functions, so the same arithmetic; in
-``direct_span`` background pixels get a value the caller ignores.
+``direct_span`` background pixels get a value the caller ignores.  The loop's pieces
+(the lane arrays, a lane's fill, steps (2) and (3) with their diffuse colour and sum
+as parameters) also build the tracer's primary direct light (``trace/primary_light.py``).
 """
 
 from __future__ import annotations

@@ -259,13 +259,32 @@ def test_shadow_bvhs_follow_animated_points(device: str, wide_bvh: bool | None, 
 def test_packets_of_pixels_trace_what_one_pixel_at_a_time_does(opacity: float) -> None:
     """The CPU's primary shadow kernel traces eight list items' rays toward a light as one
     packet (``wide_any_hit_packet``): past an opaque pane and through a glass one (the
-    ordered walk after the packet), toward a hard and a soft light (three samples each),
+    ordered walk after the packet), toward a hard light and a soft spot and rect light
+    (three samples each; each light's reach decided for the packet at once, ``_reach_group``),
     over a shuffled list whose length is no multiple of eight, with misses in it, and
     again from the still view's cache, it gives every pixel the transmittance, the
     visibility and the ray count that Warp's own queries, one pixel a thread, give."""
     scene, cam = pane_scene(opacity)
-    bulb = Light(LightKind.SPHERE, "/bulb", (20.0, 20.0, 20.0), position=(0.5, 3.0, 0.5), radius=0.4)
-    scene = dataclasses.replace(scene, lights=[*scene.lights, bulb])
+    # (a spot: the points outside its cone get no ray)
+    bulb = Light(
+        LightKind.SPHERE,
+        "/bulb",
+        (20.0, 20.0, 20.0),
+        position=(0.5, 3.0, 0.5),
+        radius=0.4,
+        direction=(0.0, -1.0, 0.0),
+        cone_angle_deg=25.0,
+    )
+    panel = Light(
+        LightKind.RECT,
+        "/panel",
+        (6.0, 6.0, 6.0),
+        position=(-0.5, 2.5, 0.0),
+        direction=(0.0, -1.0, 0.0),
+        axis_u=(0.4, 0.0, 0.0),
+        axis_v=(0.0, 0.0, 0.3),
+    )
+    scene = dataclasses.replace(scene, lights=[*scene.lights, bulb, panel])
     ds = DeviceScene(scene, "cpu")
     camera = make_camera_gpu(cam, W, H)
     gb = GBuffer(W, H, "cpu")
@@ -281,7 +300,7 @@ def test_packets_of_pixels_trace_what_one_pixel_at_a_time_does(opacity: float) -
             runs = []
             for reuse in (False, True):
                 color = wp.zeros((H, W), dtype=wp.vec3, device="cpu")
-                vis = wp.full((H, W, 2), value=float("nan"), dtype=wp.float32, device="cpu")
+                vis = wp.full((H, W, 3), value=float("nan"), dtype=wp.float32, device="cpu")
                 tracer.begin_frame(W, H)
                 tally = tracer.trace(ds, camera, gb, pixels, count, color, vis, StageTimer(), reuse_shadows=reuse)
                 runs.append((color.numpy(), vis.numpy(), tally.counts().shadow))

@@ -44,6 +44,7 @@ from ..core.scene_gpu import FLAG_BLENDED, FLAG_CUTOUT, FLAG_TRANSMISSIVE, Light
 from ..lighting.brdf import fresnel_dielectric
 from ..lighting.light_sampling import center_ray_length, light_has_extent, sample_light_ray
 from ..lighting.lights import LightSample, light_reaches, reach_sample
+from ..lighting.native_math import cpp
 from ..scene.device.surface import is_cut_away, surface_at
 from ..scene.device.wide_bvh import PACKET, wide_any_hit, wide_any_hit_packet, wide_closest
 from .occluders import OccluderGPU
@@ -263,6 +264,47 @@ _group_vec3s = wp.types.matrix(shape=(SHADOW_GROUP, 3), dtype=wp.float32)
 _group_floats = wp.types.vector(length=SHADOW_GROUP, dtype=wp.float32)
 _group_ints = wp.types.vector(length=SHADOW_GROUP, dtype=wp.int32)
 _group_states = wp.types.vector(length=SHADOW_GROUP, dtype=wp.uint32)
+#: Per pixel of a group, where a light is as it sees it: ``wi``, the distance, and 1 where
+#: the light reaches it (``_reach_group``).
+_group_reach = wp.types.matrix(shape=(SHADOW_GROUP, 5), dtype=wp.float32)
+
+
+@wp.func_native(
+    cpp("light_sample", "centre_reaches")
+    + f"""
+const bool has_cone = wh_has_cone(light);
+const float cos_inner = has_cone ? wh_cone_inner(light) : 0.0f;
+wp::mat_t<{SHADOW_GROUP}, 5, float> out;
+auto lane = [&](const int kind, const int j) WH_INLINE {{
+    const wp::vec3 p(ps.data[j][0], ps.data[j][1], ps.data[j][2]);
+    const wp::vec3 n(ns.data[j][0], ns.data[j][1], ns.data[j][2]);
+    wp::vec3 wi, e_normal, irradiance;
+    float distance;
+    wh_light_sample(light, kind, has_cone, cos_inner, p, n, false, WH_RECT_ONE, wi, distance, e_normal, irradiance);
+    const bool reaches = wp::max(irradiance[0], wp::max(irradiance[1], irradiance[2])) > 0.0f ||
+                         wh_centre_reaches(e_normal, wp::dot(n, wi));
+    out.data[j][0] = wi[0]; out.data[j][1] = wi[1]; out.data[j][2] = wi[2];
+    out.data[j][3] = distance;
+    out.data[j][4] = reaches && live[j] >= 0 ? 1.0f : 0.0f;
+}};
+if (light.kind == WH_DISTANT) {{
+    for (int j = 0; j < {SHADOW_GROUP}; ++j) lane(WH_DISTANT, j);
+}} else if (light.kind == WH_SPHERE) {{
+    for (int j = 0; j < {SHADOW_GROUP}; ++j) lane(WH_SPHERE, j);
+}} else if (light.kind == WH_RECT) {{
+    for (int j = 0; j < {SHADOW_GROUP}; ++j) lane(WH_RECT, j);
+}} else {{
+    for (int j = 0; j < {SHADOW_GROUP}; ++j) lane(light.kind, j);
+}}
+return out;
+"""
+)
+def _reach_group(light: LightGPU, ps: _group_vec3s, ns: _group_vec3s, live: _group_ints) -> _group_reach:
+    """Row ``j``: ``reach_sample(light, ps[j], ns[j])``'s ``wi`` and distance, and 1 where
+    ``light_reaches`` says the light reaches pixel ``j`` and ``live[j] >= 0`` (0 elsewhere);
+    every pixel of the group at once, the light's kind decided once, the same lambdas as
+    the scalar functions (so the same values)."""
+    ...
 
 
 def shadow_launch(wide: bool, first: int, items: int) -> tuple[int, tuple[int, int]]:
@@ -424,14 +466,14 @@ def _packet_shadow_kernel(layered: bool, soft: bool, cutouts: bool) -> wp.Kernel
             wis = _group_vec3s()
             distances = _group_floats()
             reaches = _group_ints()
+            reach = _reach_group(light, ps, ns, xs)
             for j in range(SHADOW_GROUP):
                 if xs[j] >= 0:
                     states[j] = shadow_rng(tf.params, i, 0, ys[j] * tf.cam.width + xs[j])
-                    ls = reach_sample(light, ps[j], ns[j])
-                    if light_reaches(ls, ns[j]):
+                    if reach[j, 4] != 0.0:
                         reaches[j] = 1
-                        wis[j] = ls.wi
-                        distances[j] = ls.distance
+                        wis[j] = wp.vec3(reach[j, 0], reach[j, 1], reach[j, 2])
+                        distances[j] = reach[j, 3]
                         if bounded[j] == 0:
                             bounds[j] = hit_bound(scene, tf.gb.triangle_id[ys[j], xs[j]])
                             bounded[j] = 1

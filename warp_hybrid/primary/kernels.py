@@ -496,8 +496,8 @@ def _background_cpp(channel: str) -> str:
 
 
 # The surface pass's row loop: a chunk of pixels at a time, (1) a gather of each pixel's
-# triangle corners, corner uvs and normals and its barycentrics (none for the
-# background), (2) the camera ray, the uv footprint (``UV_FOOTPRINT_CPP``) and the
+# triangle corners, corner uvs and normals (once for a run of pixels on one triangle) and
+# its barycentrics (none for the background), (2) the camera ray, the uv footprint (``UV_FOOTPRINT_CPP``) and the
 # surface's frame (``wh_surface_frame``) as plain arithmetic over the chunk (the compiler
 # vectorises it across pixels), (3) the material (``wh_material``, its textures filtered
 # over the footprint: over the chunk, its taps too, where every pixel shows one material
@@ -564,10 +564,13 @@ auto store_hit = [&](int j, int mid, const wp::vec3& albedo, const wp::vec3& spe
 }};
 for (; xs < x1; xs += CHUNK) {{
     const int n = x1 - xs < CHUNK ? x1 - xs : CHUNK;
-    for (int j = 0; j < n; ++j) {{
+    // (a run of pixels on one triangle fetches its corners once)
+    for (int run = 0; run < n;) {{
+        const int tri = tris[xs + run];
+        int end = run + 1;
+        while (end < n && tris[xs + end] == tri) ++end;
         wp::vec3 a(0.0f), b(0.0f), c(0.0f), na(0.0f), nb(0.0f), nc(0.0f);
-        wp::vec2 ta(0.0f), tb(0.0f), tc(0.0f), w(0.0f);
-        const int tri = tris[xs + j];
+        wp::vec2 ta(0.0f), tb(0.0f), tc(0.0f);
         if (tri >= 0) {{
             const int k = 3 * tri;
             a = corners[index[k]];
@@ -579,14 +582,17 @@ for (; xs < x1; xs += CHUNK) {{
             na = corner_normals[k];
             nb = corner_normals[k + 1];
             nc = corner_normals[k + 2];
-            w = bary[xs + j];
         }}
-        {_STORE_CORNERS_CPP}
-        u0[j] = ta[0]; v0[j] = ta[1]; u1[j] = tb[0]; v1[j] = tb[1]; u2[j] = tc[0]; v2[j] = tc[1];
-        mx[j] = na[0]; my[j] = na[1]; mz[j] = na[2];
-        nx1[j] = nb[0]; ny1[j] = nb[1]; nz1[j] = nb[2];
-        ox[j] = nc[0]; oy[j] = nc[1]; oz[j] = nc[2];
-        bu[j] = w[0]; bv[j] = w[1];
+        for (int j = run; j < end; ++j) {{
+            const wp::vec2 w = tri >= 0 ? bary[xs + j] : wp::vec2(0.0f);
+            {_STORE_CORNERS_CPP}
+            u0[j] = ta[0]; v0[j] = ta[1]; u1[j] = tb[0]; v1[j] = tb[1]; u2[j] = tc[0]; v2[j] = tc[1];
+            mx[j] = na[0]; my[j] = na[1]; mz[j] = na[2];
+            nx1[j] = nb[0]; ny1[j] = nb[1]; nz1[j] = nb[2];
+            ox[j] = nc[0]; oy[j] = nc[1]; oz[j] = nc[2];
+            bu[j] = w[0]; bv[j] = w[1];
+        }}
+        run = end;
     }}
     for (int j = 0; j < n; ++j) {{
         {_LANE_RAY_CPP}

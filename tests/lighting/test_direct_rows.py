@@ -6,9 +6,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import warp as wp
+from shading_kit import gbuffer_under_rect, light_set
 
 from warp_hybrid.core.camera import CameraGPU, make_camera_gpu, pixel_ray
-from warp_hybrid.core.gbuffer import GBuffer, GBufferArrays
+from warp_hybrid.core.gbuffer import GBufferArrays
 from warp_hybrid.core.scene_gpu import AmbientGPU, SceneGPU
 from warp_hybrid.lighting.ambient import direction_free
 from warp_hybrid.lighting.direct_rows import direct_span, lit_span
@@ -16,13 +17,12 @@ from warp_hybrid.lighting.shading import diffuse_albedo, direct_light, shade_sur
 from warp_hybrid.scene.authoring.builders import look_at_camera, make_scene, quad
 from warp_hybrid.scene.device import DeviceScene
 from warp_hybrid.scene.device.environment import environment_radiance
-from warp_hybrid.scene.model import Environment, Light, LightKind, Material, TextureBinding, TextureImage
+from warp_hybrid.scene.model import Environment, Material, TextureBinding, TextureImage
 
 wp.set_module_options({"enable_backward": False})
 
 #: 70 columns: one whole chunk of 64 pixels and a tail of 6.
 H, W = 4, 70
-RECT_CENTRE = (0.0, 2.0, 0.0)
 
 
 @wp.kernel
@@ -84,84 +84,16 @@ def direction_free_kernel(scene: SceneGPU, amb: AmbientGPU, out: wp.array(dtype=
     out[0] = wp.where(direction_free(scene, amb), 1, 0)
 
 
-def _lights(kind: str) -> list[Light]:
-    """One light of ``kind`` ("rect": a rectangle facing down over the points; "all": one
-    of every kind, a spot among them)."""
-    rect = Light(
-        LightKind.RECT,
-        "rect",
-        (3.0, 2.5, 2.0),
-        position=RECT_CENTRE,
-        direction=(0.0, -1.0, 0.0),
-        axis_u=(0.5, 0.0, 0.0),
-        axis_v=(0.0, 0.0, 0.4),
-    )
-    if kind == "rect":
-        return [rect]
-    return [
-        rect,
-        Light(LightKind.DISTANT, "sun", (1.0, 0.9, 0.8), direction=(0.3, -1.0, 0.2)),
-        Light(LightKind.SPHERE, "bulb", (5.0, 5.0, 5.0), position=(1.0, 1.5, 1.0), radius=0.2, normalize=True),
-        Light(LightKind.SPHERE, "point", (2.0, 1.0, 1.0), position=(-1.0, 1.0, 0.5)),
-        Light(
-            LightKind.SPHERE,
-            "spot",
-            (8.0, 8.0, 8.0),
-            position=(0.0, 3.0, 1.0),
-            direction=(0.0, -1.0, 0.0),
-            radius=0.1,
-            cone_angle_deg=30.0,
-            cone_softness=0.5,
-        ),
-        Light(
-            LightKind.DISK,
-            "disk",
-            (4.0, 4.0, 4.0),
-            position=(-1.5, 2.0, -1.0),
-            direction=(0.2, -1.0, 0.0),
-            radius=0.3,
-        ),
-    ]
-
-
-def _gbuffer(device: str, rng: np.random.Generator) -> GBuffer:
-    """Points below the rect light; row 0 faces it (the rectangle above every horizon),
-    row 1 faces sideways under it (the horizon cuts it at every pixel), rows 2 and 3 have
-    random normals (a mix); random colours, roughness 0.15-1, every third pixel glass."""
-    gb = GBuffer(W, H, device)
-    pos = np.zeros((H, W, 3), np.float32)
-    pos[..., 0] = rng.uniform(-2.0, 2.0, (H, W))
-    pos[1, :, 0] = rng.uniform(-0.3, 0.3, W)
-    pos[..., 1] = rng.uniform(-0.2, 0.2, (H, W))
-    pos[..., 2] = rng.uniform(-0.3, 0.3, (H, W))
-    normal = rng.normal(size=(H, W, 3)).astype(np.float32)
-    normal[0] = (0.0, 1.0, 0.0)
-    normal[1] = (1.0, 0.0, 0.0)
-    normal /= np.linalg.norm(normal, axis=-1, keepdims=True)
-    gb.position.assign(pos)
-    gb.normal.assign(normal)
-    gb.albedo.assign(rng.uniform(0.0, 1.0, (H, W, 3)).astype(np.float32))
-    gb.specular.assign(rng.uniform(0.0, 1.0, (H, W, 3)).astype(np.float32))
-    optics = np.zeros((H, W), dtype=gb.optics.numpy().dtype)
-    optics["roughness"] = rng.uniform(0.15, 1.0, (H, W))
-    optics["opacity"] = rng.uniform(0.0, 1.0, (H, W))
-    optics["ior"] = rng.uniform(1.2, 2.0, (H, W))
-    gb.optics.assign(optics)
-    gb.material_id.assign((np.arange(H * W).reshape(H, W) % 3 == 0).astype(np.int32))
-    gb.triangle_id.assign(np.zeros((H, W), np.int32))
-    return gb
-
-
 @pytest.mark.parametrize("lights", ["rect", "all"])
 @pytest.mark.parametrize("dome", [False, True])
 def test_row_loop_matches_the_scalar_sum(device, lights, dome):
     rng = np.random.default_rng(7)
     materials = [Material("paint"), Material("glass", opacity=0.3, ior=1.5)]
     env = Environment("dome", (0.2, 0.3, 0.4)) if dome else None
-    scene = make_scene([quad((-3, -1, -3), (6, 0, 0), (0, 0, 6))], materials, lights=_lights(lights), environment=env)
+    scene = make_scene([quad((-3, -1, -3), (6, 0, 0), (0, 0, 6))], materials, lights=light_set(lights), environment=env)
     ds = DeviceScene(scene, device)
     cam = make_camera_gpu(look_at_camera((0.5, 3.0, 4.0), (0.0, 0.0, 0.0)), W, H)
-    gb = _gbuffer(device, rng)
+    gb = gbuffer_under_rect(device, rng, W, H)
     got = wp.zeros((H, W), dtype=wp.vec3, device=device)
     want = wp.zeros((H, W), dtype=wp.vec3, device=device)
     count = len(scene.lights)
@@ -210,13 +142,15 @@ def test_lit_row_loop_matches_the_scalar_shading(device, dome, indirect):
     pixels, the same as ``shade_surface`` pixel by pixel."""
     rng = np.random.default_rng(11)
     materials = [Material("paint"), Material("glass", opacity=0.3, ior=1.5)]
-    scene = make_scene([quad((-3, -1, -3), (6, 0, 0), (0, 0, 6))], materials, lights=_lights("all"), **_dome(dome, rng))
+    scene = make_scene(
+        [quad((-3, -1, -3), (6, 0, 0), (0, 0, 6))], materials, lights=light_set("all"), **_dome(dome, rng)
+    )
     ds = DeviceScene(scene, device, indirect=indirect)
     flag = wp.zeros(1, dtype=wp.int32, device=device)
     wp.launch(direction_free_kernel, dim=1, inputs=[ds.gpu, ds.ambient, flag], device=device)
     assert flag.numpy()[0] == (0 if dome == "textured" else 1)
     cam = make_camera_gpu(look_at_camera((0.5, 3.0, 4.0), (0.0, 0.0, 0.0)), W, H)
-    gb = _gbuffer(device, rng)
+    gb = gbuffer_under_rect(device, rng, W, H)
     optics = gb.optics.numpy()
     optics["roughness"][:, ::4] = 0.0  # the dome's own texture (mip level 0)
     optics["roughness"][:, 1::4] = 1.0  # past the last level: blended into the SH irradiance

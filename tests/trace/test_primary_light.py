@@ -8,9 +8,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import warp as wp
+from shading_kit import gbuffer_under_rect, light_set
 
 from warp_hybrid.core.camera import make_camera_gpu
-from warp_hybrid.core.gbuffer import GBuffer
 from warp_hybrid.core.pixel_list import listed_pixel
 from warp_hybrid.core.scene_gpu import FLAG_TRANSMISSIVE, SceneGPU
 from warp_hybrid.lighting.lights import light_sample
@@ -18,7 +18,7 @@ from warp_hybrid.lighting.shading import diffuse_albedo, light_response
 from warp_hybrid.parallel import ITEM_GROUP
 from warp_hybrid.scene.authoring.builders import look_at_camera, make_scene, quad
 from warp_hybrid.scene.device import DeviceScene
-from warp_hybrid.scene.model import Light, LightKind, Material
+from warp_hybrid.scene.model import Material
 from warp_hybrid.trace.occluders import OccluderGPU
 from warp_hybrid.trace.primary_light import primary_direct
 from warp_hybrid.trace.rays import TraceFrame, TraceParams
@@ -65,69 +65,14 @@ def point_kernel(scene: SceneGPU, tf: TraceFrame, transparency: bool, out: wp.ar
     out[item] = direct
 
 
-def _lights() -> list[Light]:
-    """One light of every kind (a spot among them), a rect light facing down over the points."""
-    return [
-        Light(
-            LightKind.RECT,
-            "rect",
-            (3.0, 2.5, 2.0),
-            position=(0.0, 2.0, 0.0),
-            direction=(0.0, -1.0, 0.0),
-            axis_u=(0.5, 0.0, 0.0),
-            axis_v=(0.0, 0.0, 0.4),
-        ),
-        Light(LightKind.DISTANT, "sun", (1.0, 0.9, 0.8), direction=(0.3, -1.0, 0.2)),
-        Light(LightKind.SPHERE, "bulb", (5.0, 5.0, 5.0), position=(1.0, 1.5, 1.0), radius=0.2, normalize=True),
-        Light(
-            LightKind.SPHERE,
-            "spot",
-            (8.0, 8.0, 8.0),
-            position=(0.0, 3.0, 1.0),
-            direction=(0.0, -1.0, 0.0),
-            radius=0.1,
-            cone_angle_deg=30.0,
-            cone_softness=0.5,
-        ),
-        Light(
-            LightKind.DISK, "disk", (4.0, 4.0, 4.0), position=(-1.5, 2.0, -1.0), direction=(0.2, -1.0, 0.0), radius=0.3
-        ),
-    ]
-
-
-def _gbuffer(device: str, rng: np.random.Generator) -> GBuffer:
-    """Points under the rect light: row 0 faces it, row 1 faces sideways (its horizon cuts
-    the rectangle), the other rows random normals; random colours, every third pixel glass."""
-    gb = GBuffer(W, H, device)
-    pos = np.stack(
-        [rng.uniform(-2.0, 2.0, (H, W)), rng.uniform(-0.2, 0.2, (H, W)), rng.uniform(-0.3, 0.3, (H, W))], axis=-1
-    )
-    normal = rng.normal(size=(H, W, 3))
-    normal[0] = (0.0, 1.0, 0.0)
-    normal[1] = (1.0, 0.0, 0.0)
-    normal /= np.linalg.norm(normal, axis=-1, keepdims=True)
-    gb.position.assign(pos.astype(np.float32))
-    gb.normal.assign(normal.astype(np.float32))
-    gb.albedo.assign(rng.uniform(0.0, 1.0, (H, W, 3)).astype(np.float32))
-    gb.specular.assign(rng.uniform(0.0, 1.0, (H, W, 3)).astype(np.float32))
-    optics = np.zeros((H, W), dtype=gb.optics.numpy().dtype)
-    optics["roughness"] = rng.uniform(0.15, 1.0, (H, W))
-    optics["opacity"] = rng.uniform(0.0, 1.0, (H, W))
-    optics["ior"] = rng.uniform(1.2, 2.0, (H, W))
-    gb.optics.assign(optics)
-    gb.material_id.assign((np.arange(H * W).reshape(H, W) % 3 == 0).astype(np.int32))
-    gb.triangle_id.assign(np.zeros((H, W), np.int32))
-    return gb
-
-
 @pytest.mark.parametrize("max_depth", [0, 4])
 @pytest.mark.parametrize("transparency", [False, True])
 def test_group_sum_matches_the_point_sum(device, max_depth, transparency):
     rng = np.random.default_rng(11)
     materials = [Material("paint", roughness=0.4), Material("glass", opacity=0.3, ior=1.5)]
-    scene = make_scene([quad((-3, -1, -3), (6, 0, 0), (0, 0, 6))], materials, lights=_lights())
+    scene = make_scene([quad((-3, -1, -3), (6, 0, 0), (0, 0, 6))], materials, lights=light_set("all"))
     ds = DeviceScene(scene, device)
-    gb = _gbuffer(device, rng)
+    gb = gbuffer_under_rect(device, rng, W, H)
     # every pixel once in no order, and entries outside the image (their rows are not read)
     listed = rng.permutation(H * W).astype(np.int32)
     listed[[5, 37, 100]] = (-1, H * W, H * W + 7)

@@ -1,0 +1,82 @@
+"""Shading points for the tests of the lights' row loops (the deferred pass's and the tracer's
+primary direct light): one light of every kind over a random G-buffer under a rect light."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from warp_hybrid.core.gbuffer import GBuffer
+from warp_hybrid.scene.model import Light, LightKind
+
+#: Where the rect light hangs, facing down over the points.
+RECT_CENTRE = (0.0, 2.0, 0.0)
+
+
+def light_set(kind: str) -> list[Light]:
+    """One light of ``kind`` ("rect": a rectangle facing down over the points; "all": one
+    of every kind, a spot among them)."""
+    rect = Light(
+        LightKind.RECT,
+        "rect",
+        (3.0, 2.5, 2.0),
+        position=RECT_CENTRE,
+        direction=(0.0, -1.0, 0.0),
+        axis_u=(0.5, 0.0, 0.0),
+        axis_v=(0.0, 0.0, 0.4),
+    )
+    if kind == "rect":
+        return [rect]
+    return [
+        rect,
+        Light(LightKind.DISTANT, "sun", (1.0, 0.9, 0.8), direction=(0.3, -1.0, 0.2)),
+        Light(LightKind.SPHERE, "bulb", (5.0, 5.0, 5.0), position=(1.0, 1.5, 1.0), radius=0.2, normalize=True),
+        Light(LightKind.SPHERE, "point", (2.0, 1.0, 1.0), position=(-1.0, 1.0, 0.5)),
+        Light(
+            LightKind.SPHERE,
+            "spot",
+            (8.0, 8.0, 8.0),
+            position=(0.0, 3.0, 1.0),
+            direction=(0.0, -1.0, 0.0),
+            radius=0.1,
+            cone_angle_deg=30.0,
+            cone_softness=0.5,
+        ),
+        Light(
+            LightKind.DISK,
+            "disk",
+            (4.0, 4.0, 4.0),
+            position=(-1.5, 2.0, -1.0),
+            direction=(0.2, -1.0, 0.0),
+            radius=0.3,
+        ),
+    ]
+
+
+def gbuffer_under_rect(device: str, rng: np.random.Generator, width: int, height: int) -> GBuffer:
+    """Points below the rect light; row 0 faces it (the rectangle above every horizon),
+    row 1 faces sideways under it (the horizon cuts it at every pixel), the other rows
+    have random normals (a mix); random colours, roughness 0.15-1, every third pixel
+    glass (material 1), every pixel on triangle 0."""
+    h, w = height, width
+    gb = GBuffer(w, h, device)
+    pos = np.zeros((h, w, 3), np.float32)
+    pos[..., 0] = rng.uniform(-2.0, 2.0, (h, w))
+    pos[1, :, 0] = rng.uniform(-0.3, 0.3, w)
+    pos[..., 1] = rng.uniform(-0.2, 0.2, (h, w))
+    pos[..., 2] = rng.uniform(-0.3, 0.3, (h, w))
+    normal = rng.normal(size=(h, w, 3)).astype(np.float32)
+    normal[0] = (0.0, 1.0, 0.0)
+    normal[1] = (1.0, 0.0, 0.0)
+    normal /= np.linalg.norm(normal, axis=-1, keepdims=True)
+    gb.position.assign(pos)
+    gb.normal.assign(normal)
+    gb.albedo.assign(rng.uniform(0.0, 1.0, (h, w, 3)).astype(np.float32))
+    gb.specular.assign(rng.uniform(0.0, 1.0, (h, w, 3)).astype(np.float32))
+    optics = np.zeros((h, w), dtype=gb.optics.numpy().dtype)
+    optics["roughness"] = rng.uniform(0.15, 1.0, (h, w))
+    optics["opacity"] = rng.uniform(0.0, 1.0, (h, w))
+    optics["ior"] = rng.uniform(1.2, 2.0, (h, w))
+    gb.optics.assign(optics)
+    gb.material_id.assign((np.arange(h * w).reshape(h, w) % 3 == 0).astype(np.int32))
+    gb.triangle_id.assign(np.zeros((h, w), np.int32))
+    return gb

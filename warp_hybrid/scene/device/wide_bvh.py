@@ -378,30 +378,36 @@ const float* nb = node_data.data;
 const int* lv = leaves.data;
 const float* tv = corners.data;
 const float widen = WIDEN;
-vPf ox, oy, oz, ix, iy, iz, tmax, okx, oky, okz, Sx, Sy, Sz;
-vPi flat_x, flat_y, flat_z, lane_bit;
-int kxs[PACKET], kys[PACKET], kzs[PACKET];
-unsigned live = 0;
+// the rays' part of the slab and watertight tests, across the packet's lanes: the same
+// operations as the single-ray query's (RAY_AXES as selects: Warp's max_dim keeps the first
+// of equal extents), so each lane's values are that query's
+vPf ox, oy, oz, dx, dy, dz, tmax;
 for (int j = 0; j < PACKET; ++j) {
-    const wp::vec3 oj(o.data[j][0], o.data[j][1], o.data[j][2]);
-    const wp::vec3 dj(d.data[j][0], d.data[j][1], d.data[j][2]);
-    ox[j] = oj[0]; oy[j] = oj[1]; oz[j] = oj[2];
-    const bool fx = wp::abs(dj[0]) < 1.0e-30f, fy = wp::abs(dj[1]) < 1.0e-30f, fz = wp::abs(dj[2]) < 1.0e-30f;
-    flat_x[j] = fx ? -1 : 0; flat_y[j] = fy ? -1 : 0; flat_z[j] = fz ? -1 : 0;
-    ix[j] = fx ? 0.0f : 1.0f / dj[0]; iy[j] = fy ? 0.0f : 1.0f / dj[1]; iz[j] = fz ? 0.0f : 1.0f / dj[2];
+    ox[j] = o.data[j][0]; oy[j] = o.data[j][1]; oz[j] = o.data[j][2];
+    dx[j] = d.data[j][0]; dy[j] = d.data[j][1]; dz[j] = d.data[j][2];
     tmax[j] = max_t[j];
-    lane_bit[j] = 1 << j;
-RAY_AXES
-    kxs[j] = kx; kys[j] = ky; kzs[j] = kz;
-    Sx[j] = dj[kx] / dj[kz]; Sy[j] = dj[ky] / dj[kz]; Sz[j] = 1.0f / dj[kz];
-    okx[j] = oj[kx]; oky[j] = oj[ky]; okz[j] = oj[kz];
-    if (tmax[j] > 0.0f) live |= 1u << j;  // the single-ray query finds nothing for max_t <= 0 (or NaN)
 }
+const vPf adx = __builtin_elementwise_abs(dx), ady = __builtin_elementwise_abs(dy), adz = __builtin_elementwise_abs(dz);
+const vPi flat_x = adx < 1.0e-30f, flat_y = ady < 1.0e-30f, flat_z = adz < 1.0e-30f;
+const vPf ix = flat_x ? (vPf)0.0f : 1.0f / dx, iy = flat_y ? (vPf)0.0f : 1.0f / dy, iz = flat_z ? (vPf)0.0f : 1.0f / dz;
+const vPi y_longer = ady > adx;
+const vPi kz = adz > (y_longer ? ady : adx) ? (vPi)2 : (y_longer ? (vPi)1 : (vPi)0);
+auto pick = [](const vPi k, const vPf x, const vPf y, const vPf z) { return k == 0 ? x : (k == 1 ? y : z); };
+const vPf dkz = pick(kz, dx, dy, dz);
+const vPi kx_turn = kz == 2 ? (vPi)0 : kz + 1;
+const vPi ky_turn = kx_turn == 2 ? (vPi)0 : kx_turn + 1;
+const vPi swap = dkz < 0.0f;
+const vPi kx = swap ? ky_turn : kx_turn, ky = swap ? kx_turn : ky_turn;
+const vPf Sx = pick(kx, dx, dy, dz) / dkz, Sy = pick(ky, dx, dy, dz) / dkz, Sz = 1.0f / dkz;
+const vPf okx = pick(kx, ox, oy, oz), oky = pick(ky, ox, oy, oz), okz = pick(kz, ox, oy, oz);
+vPi lane_bit;
+for (int j = 0; j < PACKET; ++j) lane_bit[j] = 1 << j;
+// the single-ray query finds nothing for max_t <= 0 (or NaN)
+const unsigned live = (unsigned)__builtin_reduce_or((tmax > 0.0f) & lane_bit);
 // the rays' shared dominant axis, if the live rays have one (lanes without a ray ignored)
 const int lead = live != 0 ? __builtin_ctz(live) : 0;
-bool uniform = true;
-for (int j = 0; j < PACKET; ++j)
-    if ((live >> j) & 1u) uniform = uniform && kxs[j] == kxs[lead] && kys[j] == kys[lead] && kzs[j] == kzs[lead];
+const unsigned same = (unsigned)__builtin_reduce_or((kx == kx[lead]) & (ky == ky[lead]) & (kz == kz[lead]) & lane_bit);
+const bool uniform = (same & live) == live;
 const bool any_flat = __builtin_reduce_or(flat_x | flat_y | flat_z) != 0;
 const int none = NO_CHILD;
 unsigned blocked = 0;
@@ -448,15 +454,15 @@ SLAB_SPAN
         const float* t = tv + 9 * g;
         vPf Ax, Ay, Az, Bx, By, Bz, Cx, Cy, Cz;
         if (uniform) {
-            const int kx = kxs[lead], ky = kys[lead], kz = kzs[lead];
-            Ax = t[kx] - okx; Ay = t[ky] - oky; Az = t[kz] - okz;
-            Bx = t[3 + kx] - okx; By = t[3 + ky] - oky; Bz = t[3 + kz] - okz;
-            Cx = t[6 + kx] - okx; Cy = t[6 + ky] - oky; Cz = t[6 + kz] - okz;
+            const int ux = kx[lead], uy = ky[lead], uz = kz[lead];
+            Ax = t[ux] - okx; Ay = t[uy] - oky; Az = t[uz] - okz;
+            Bx = t[3 + ux] - okx; By = t[3 + uy] - oky; Bz = t[3 + uz] - okz;
+            Cx = t[6 + ux] - okx; Cy = t[6 + uy] - oky; Cz = t[6 + uz] - okz;
         } else {
             for (int j = 0; j < PACKET; ++j) {
-                Ax[j] = t[kxs[j]] - okx[j]; Ay[j] = t[kys[j]] - oky[j]; Az[j] = t[kzs[j]] - okz[j];
-                Bx[j] = t[3 + kxs[j]] - okx[j]; By[j] = t[3 + kys[j]] - oky[j]; Bz[j] = t[3 + kzs[j]] - okz[j];
-                Cx[j] = t[6 + kxs[j]] - okx[j]; Cy[j] = t[6 + kys[j]] - oky[j]; Cz[j] = t[6 + kzs[j]] - okz[j];
+                Ax[j] = t[kx[j]] - okx[j]; Ay[j] = t[ky[j]] - oky[j]; Az[j] = t[kz[j]] - okz[j];
+                Bx[j] = t[3 + kx[j]] - okx[j]; By[j] = t[3 + ky[j]] - oky[j]; Bz[j] = t[3 + kz[j]] - okz[j];
+                Cx[j] = t[6 + kx[j]] - okx[j]; Cy[j] = t[6 + ky[j]] - oky[j]; Cz[j] = t[6 + kz[j]] - okz[j];
             }
         }
 WATERTIGHT_LANES
@@ -470,8 +476,7 @@ return (int)blocked;
 
 
 @wp.func_native(
-    _ANY_PACKET.replace("RAY_AXES", _RAY_AXES.replace("DIR", "dj"))
-    .replace("WIDEN", _WIDEN)
+    _ANY_PACKET.replace("WIDEN", _WIDEN)
     .replace("SLAB_SPAN", _lanes(_SLAB_SPAN, "vPf", "vPi", "PACKET"))
     .replace("WATERTIGHT_LANES", _lanes(_WATERTIGHT_LANES, "vPf", "vPi", "PACKET"))
     .replace("PACKET", str(PACKET))

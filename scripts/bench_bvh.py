@@ -12,8 +12,10 @@ answers (face and distance of the closest hits, the any-hit flags) to ``--answer
 when given, to compare two trees or two checkouts ray for ray.  With the 4-wide BVH it
 also times the primary shadow rays toward the scene's first light (every hit pixel in
 row order, as the shadow pass lists them) one at a time and as packets of ``PACKET``
-neighbours (``wide_any_hit_packet``, the shadow pass's query), and checks they answer
-alike.
+neighbours (``wide_any_hit_packet``, the shadow pass's query), and the mirror rays of
+every hit pixel (the camera ray reflected about the shading normal, in row order: the
+path kernel's first rays where every surface were a mirror) one at a time and as packets
+(``wide_closest_packet``), and checks each pair answers alike.
 
     .venv/bin/python scripts/bench_bvh.py [--scenes staircase classroom] [--rays 100000] [--repeats 5]
         [--bvh wide|warp] [--answers out/bvh_answers] [--json out/bench_bvh.json]
@@ -34,6 +36,7 @@ from warp_hybrid.scene.device.wide_bvh import (
     WideBVH,
     WideBVHGPU,
     packet_any_hits,
+    packet_closest_hits,
     wide_any_hit,
     wide_closest,
 )
@@ -56,6 +59,23 @@ def wide_queries(
         out[i] = wp.vec2(wp.where(h.result, float(h.face), -1.0), h.t)
     else:
         out[i] = wp.vec2(wp.where(wide_any_hit(tree, o[i], d[i], max_t[i]), 1.0, 0.0), 0.0)
+
+
+@wp.kernel
+def closest_queries(
+    tree: WideBVHGPU,
+    o: wp.array(dtype=wp.vec3),
+    d: wp.array(dtype=wp.vec3),
+    max_t: wp.array(dtype=float),
+    out: wp.array(dtype=wp.vec4),
+):
+    """One closest hit a ray on the 4-wide BVH: (face, t, u, v), (-1, 0, 0, 0) for none
+    (``packet_closest_hits``'s layout)."""
+    i = wp.tid()
+    h = wide_closest(tree, o[i], d[i], max_t[i])
+    out[i] = wp.vec4(-1.0, 0.0, 0.0, 0.0)
+    if h.result:
+        out[i] = wp.vec4(float(h.face), h.t, h.u, h.v)
 
 
 @wp.kernel
@@ -99,6 +119,22 @@ def light_rays(gbuffer: object, light: object) -> tuple[np.ndarray, np.ndarray, 
     return (pos + 1.0e-3 * side).astype(f32), d.astype(f32), length.astype(f32)
 
 
+def mirror_rays(gbuffer: object, eye: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(origins, directions, lengths) of every hit pixel's mirror ray, in row order: the
+    ray from ``eye`` reflected about the shading normal, leaving on its side of the surface."""
+    pos = gbuffer.channel_numpy("position").reshape(-1, 3).astype(np.float64)
+    nrm = gbuffer.channel_numpy("normal").reshape(-1, 3).astype(np.float64)
+    geo = gbuffer.channel_numpy("geometric_normal").reshape(-1, 3).astype(np.float64)
+    hit = gbuffer.hit_mask().reshape(-1)
+    pos, nrm, geo = pos[hit], nrm[hit], geo[hit]
+    v = pos - eye
+    v /= np.linalg.norm(v, axis=1, keepdims=True)
+    d = v - 2.0 * (v * nrm).sum(1, keepdims=True) * nrm
+    side = np.where((d * geo).sum(1, keepdims=True) < 0.0, -geo, geo)
+    f32 = np.float32
+    return (pos + 1.0e-3 * side).astype(f32), d.astype(f32), np.full(len(pos), 1.0e30, f32)
+
+
 def query_rays(gbuffer: object, count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(origins, hemisphere directions, segment directions, segment lengths) from the
     G-buffer's hit points."""
@@ -120,10 +156,37 @@ def query_rays(gbuffer: object, count: int) -> tuple[np.ndarray, np.ndarray, np.
     return origins.astype(f32), bounce.astype(f32), segment.astype(f32), (0.999 * length).astype(f32)
 
 
+def _any_hit_pair(tree: WideBVHGPU, o: wp.array, d: wp.array, max_t: wp.array) -> tuple[dict, tuple]:
+    """The any-hit rays one at a time and as packets: the two launches and how to read
+    each one's answers (blocked or not, one column)."""
+    n = len(o)
+    lit = wp.zeros(n, dtype=wp.vec2)
+    blocked = wp.zeros(n, dtype=wp.int32)
+    launches = {
+        "one": lambda: wp.launch(wide_queries, n, [tree, o, d, max_t, 0, lit]),
+        "packet": lambda: wp.launch(packet_any_hits, -(-n // PACKET), [tree, o, d, max_t, blocked]),
+    }
+    return launches, (lambda: lit.numpy()[:, :1], lambda: blocked.numpy().astype(np.float32)[:, None])
+
+
+def _closest_pair(tree: WideBVHGPU, o: wp.array, d: wp.array, max_t: wp.array) -> tuple[dict, tuple]:
+    """The closest-hit rays one at a time and as packets: the two launches and how to read
+    each one's answers (face, t, u, v)."""
+    n = len(o)
+    one, packet = wp.zeros(n, dtype=wp.vec4), wp.zeros(n, dtype=wp.vec4)
+    normals = wp.zeros(n, dtype=wp.vec3)
+    launches = {
+        "one": lambda: wp.launch(closest_queries, n, [tree, o, d, max_t, one]),
+        "packet": lambda: wp.launch(packet_closest_hits, -(-n // PACKET), [tree, o, d, max_t, packet, normals]),
+    }
+    return launches, (lambda: one.numpy(), lambda: packet.numpy())
+
+
 def measure_scene(
     path: str, width: int, height: int, repeats: int, rays: int = 100000, bvh: str = "wide", answers: str = ""
 ) -> dict:
     """Query times of one scene's rays (module docstring)."""
+    from warp_hybrid.core.camera import make_camera_gpu
     from warp_hybrid.renderer import Renderer, RenderSettings
     from warp_hybrid.runtime import init_warp
     from warp_hybrid.scene.open import open_scene_source
@@ -162,32 +225,26 @@ def measure_scene(
                 times.append((time.perf_counter() - start) * 1.0e9 / len(origins))
             out[f"{kind}_ns"] = statistics.median(times[1:])
             found[kind] = result.numpy().copy()
-        if bvh == "wide" and scene.lights:
-            lo, ld, lt = (
-                wp.array(a, dtype=t) for a, t in zip(light_rays(gbuffer, scene.lights[0]), (wp.vec3, wp.vec3, float))
-            )
-            n = len(lo)
-            lit = wp.zeros(n, dtype=wp.vec2)
-            blocked = wp.zeros(n, dtype=wp.int32)
-            launches = {
-                "light_one": lambda: wp.launch(wide_queries, n, [first, lo, ld, lt, 0, lit]),
-                "light_packet": lambda: wp.launch(packet_any_hits, -(-n // PACKET), [first, lo, ld, lt, blocked]),
-            }
-            answers_of = {}
-            times = {k: [] for k in launches}
-            for _ in range(repeats + 1):
-                for kind, launch in launches.items():  # alternating
-                    start = time.perf_counter()
-                    launch()
-                    wp.synchronize()
-                    times[kind].append((time.perf_counter() - start) * 1.0e9 / n)
-                    answers_of[kind] = (
-                        lit.numpy()[:, 0].copy() if kind == "light_one" else blocked.numpy().astype(float)
-                    )
-            for kind in launches:
-                out[f"{kind}_ns"] = statistics.median(times[kind][1:])
-            out["light_rays"] = n
-            out["light_differ"] = int((answers_of["light_one"] != answers_of["light_packet"]).sum())
+        if bvh == "wide":
+            eye = np.asarray(make_camera_gpu(scene.cameras[0], width, height).origin, np.float64)
+            pairs = {"mirror": (mirror_rays(gbuffer, eye), _closest_pair)}
+            if scene.lights:
+                pairs["light"] = (light_rays(gbuffer, scene.lights[0]), _any_hit_pair)
+            for name, (rays, pair) in pairs.items():
+                lo, ld, lt = (wp.array(a, dtype=t) for a, t in zip(rays, (wp.vec3, wp.vec3, float)))
+                launches, answers_of = pair(first, lo, ld, lt)
+                times = {k: [] for k in launches}
+                for _ in range(repeats + 1):
+                    for kind, launch in launches.items():  # alternating
+                        start = time.perf_counter()
+                        launch()
+                        wp.synchronize()
+                        times[kind].append((time.perf_counter() - start) * 1.0e9 / len(lo))
+                for kind in launches:
+                    out[f"{name}_{kind}_ns"] = statistics.median(times[kind][1:])
+                one, packet = (answer() for answer in answers_of)
+                out[f"{name}_rays"] = len(lo)
+                out[f"{name}_differ"] = int((one != packet).any(axis=1).sum())
     if answers:
         folder = Path(answers)
         folder.mkdir(parents=True, exist_ok=True)
@@ -210,19 +267,22 @@ def main() -> None:
     )
     print(
         "| scene | triangles | rays | nodes | build ms | closest hit ns | any-hit ns "
-        "| light rays, one / packet ns (answers differing) |"
+        "| light rays, one / packet ns (answers differing) | mirror rays, one / packet ns (answers differing) |"
     )
-    print("|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|")
     for name, r in results.items():
         nodes = r.get("nodes", "-")
         build = f"{r['build_ms']:.0f}" if "build_ms" in r else "-"
-        light = "-"
-        if "light_one_ns" in r:
-            ratio = r["light_one_ns"] / r["light_packet_ns"]
-            light = f"{r['light_one_ns']:.0f} / {r['light_packet_ns']:.0f} = {ratio:.2f}x ({r['light_differ']})"
+        pairs = []
+        for kind in ("light", "mirror"):
+            if f"{kind}_one_ns" in r:
+                one, packet = r[f"{kind}_one_ns"], r[f"{kind}_packet_ns"]
+                pairs.append(f"{one:.0f} / {packet:.0f} = {one / packet:.2f}x ({r[f'{kind}_differ']})")
+            else:
+                pairs.append("-")
         print(
             f"| {name} | {r['triangles']} | {r['rays']} | {nodes} | {build} | {r['closest_ns']:.0f} | "
-            f"{r['any_hit_ns']:.0f} | {light} |"
+            f"{r['any_hit_ns']:.0f} | {pairs[0]} | {pairs[1]} |"
         )
     print(f"\n--bvh {args.bvh}, one thread, medians of {args.repeats}")
     if args.json:

@@ -6,7 +6,12 @@ each item writes only its own pixel and its own row of the scratch arrays).  Per
 the primary point from the G-buffer is shaded with the transmittances the shadow
 kernel left (``shadows.py``; the lights' sum over them computed for the launch item's
 whole group at once, vectorised across its pixels: ``primary_light.py``), then an iterative path of reflection and refraction rays
-(no recursion) whose hits are shaded the same way, with their own shadow rays.  A
+(no recursion) whose hits are shaded the same way, with their own shadow rays.  On the
+CPU (the 4-wide variant) a launch item first takes its group's paths to their primary
+points (``begin_item``), finds the first ray of each as packets of ``PACKET``
+(``wide_bvh.wide_closest_packet``: neighbouring pixels' reflections and refractions visit
+the same nodes; the same hits as one query a ray, bit for bit), then takes each path on
+from that hit (``finish_item``).  A
 secondary hit reads its textures' mip chains over its pixel's ray cone (``cone.py``),
 as the G-buffer reads them over the pixel's footprint.
 
@@ -54,9 +59,10 @@ from ..core.scene_gpu import FLAG_BLENDED, FLAG_REFRACTIVE, FLAG_TRANSMISSIVE, A
 from ..lighting.ambient import ambient_diffuse, ambient_specular, env_brdf
 from ..lighting.lights import light_sample
 from ..lighting.shading import diffuse_albedo, light_response, shade_surface
+from ..parallel import ITEM_GROUP
 from ..scene.device.environment import environment_radiance
 from ..scene.device.surface import SurfaceHit, is_cut_away, samples_textures, surface_at_grad
-from ..scene.device.wide_bvh import wide_closest
+from ..scene.device.wide_bvh import PACKET, WideHit, hit_from_row, wide_closest, wide_closest_packet
 from .cone import cone_footprint
 from .occluders import OccluderGPU
 from .offset import hit_bound, offset_ray_origin
@@ -166,6 +172,100 @@ def no_ray() -> Ray:
     return make_ray(wp.vec3(0.0), wp.vec3(0.0), wp.vec3(0.0), 0, KIND_NONE, 0.0)
 
 
+@wp.struct
+class PathStart:
+    """A pixel's path after its primary point (``begin_item``): ``live`` 0 where nothing is
+    left to do (no pixel, or the dome's colour already written), the radiance and shadow
+    rays so far, the ray it goes on with (``next``) and the branch on its stack
+    (``pushed``), each ``KIND_NONE`` for none."""
+
+    live: int
+    radiance: wp.vec3
+    shadow_rays: int
+    next: Ray
+    pushed: Ray
+
+
+# A ``PathStart`` as a row of floats, so a launch item keeps its group's in one matrix
+# (the integers are small: exact as floats): live, shadow rays, radiance, then each ray
+# as origin, direction, weight, depth, kind, cone length.
+_LIVE = wp.constant(0)
+_SHADOW_RAYS = wp.constant(1)
+_RADIANCE = wp.constant(2)
+_NEXT = wp.constant(5)
+_RAY_FLOATS = 12
+_PUSHED = wp.constant(_NEXT + _RAY_FLOATS)
+_DEPTH = wp.constant(9)
+_KIND = wp.constant(10)
+_CONE = wp.constant(11)
+_START_FLOATS = _PUSHED + _RAY_FLOATS
+#: The fewest first rays of a packet worth a packet query (fewer: each its own query).
+#: On this machine packets of 2 and of 4 gave the same path-kernel times, and never
+#: using them 4-7% more on the staircase, the glass-mirror box and the smoke test
+#: (README, "First rays as packets"); 4 keeps sparse groups' scattered rays single.
+_PACKET_MIN = wp.constant(4)
+if ITEM_GROUP % PACKET != 0:
+    raise ValueError(f"a launch item's group ({ITEM_GROUP}) must be whole packets of {PACKET}")
+_start_floats = wp.types.vector(length=_START_FLOATS, dtype=wp.float32)
+_group_starts = wp.types.matrix(shape=(ITEM_GROUP, _START_FLOATS), dtype=wp.float32)
+#: A group's first hits (rows as ``wide_closest_packet``'s) and which of them are found.
+_group_hits = wp.types.matrix(shape=(ITEM_GROUP, 8), dtype=wp.float32)
+_group_flags = wp.types.vector(length=ITEM_GROUP, dtype=wp.int32)
+_packet_vec3s = wp.types.matrix(shape=(PACKET, 3), dtype=wp.float32)
+_packet_floats = wp.types.vector(length=PACKET, dtype=wp.float32)
+
+
+@wp.func
+def _put_ray(row: _start_floats, at: int, r: Ray) -> _start_floats:
+    """``row`` with ray ``r`` written from column ``at``."""
+    out = row
+    for k in range(3):
+        out[at + k] = r.origin[k]
+        out[at + 3 + k] = r.direction[k]
+        out[at + 6 + k] = r.weight[k]
+    out[at + _DEPTH] = float(r.depth)
+    out[at + _KIND] = float(r.kind)
+    out[at + _CONE] = r.cone_length
+    return out
+
+
+@wp.func
+def _get_ray(row: _start_floats, at: int) -> Ray:
+    """The ray written from column ``at`` of ``row``."""
+    return make_ray(
+        wp.vec3(row[at], row[at + 1], row[at + 2]),
+        wp.vec3(row[at + 3], row[at + 4], row[at + 5]),
+        wp.vec3(row[at + 6], row[at + 7], row[at + 8]),
+        int(row[at + _DEPTH]),
+        int(row[at + _KIND]),
+        row[at + _CONE],
+    )
+
+
+@wp.func
+def _start_row(st: PathStart) -> _start_floats:
+    """``st`` as a row of floats (``_row_start`` reads it back)."""
+    row = _start_floats()
+    row[_LIVE] = float(st.live)
+    row[_SHADOW_RAYS] = float(st.shadow_rays)
+    for k in range(3):
+        row[_RADIANCE + k] = st.radiance[k]
+    row = _put_ray(row, _NEXT, st.next)
+    return _put_ray(row, _PUSHED, st.pushed)
+
+
+@wp.func
+def _row_start(row: _start_floats) -> PathStart:
+    """The ``PathStart`` of a ``_start_row`` row."""
+    st = PathStart()
+    st.live = int(row[_LIVE])
+    st.shadow_rays = int(row[_SHADOW_RAYS])
+    st.radiance = wp.vec3(row[_RADIANCE], row[_RADIANCE + 1], row[_RADIANCE + 2])
+    st.next = _get_ray(row, _NEXT)
+    st.pushed = _get_ray(row, _PUSHED)
+    return st
+
+
 @functools.lru_cache(maxsize=None)
 def path_kernel(variant: TraceVariant) -> wp.Kernel:
     """The path kernel for one variant (its own Warp module, cached).
@@ -189,13 +289,21 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
     wide = variant.wide_bvh
 
     @wp.func
-    def closest_hit(scene: SceneGPU, occ: OccluderGPU, o: wp.vec3, d: wp.vec3) -> RayHit:
+    def closest_hit(
+        scene: SceneGPU, occ: OccluderGPU, o: wp.vec3, d: wp.vec3, first: WideHit, first_found: bool
+    ) -> RayHit:
+        """The nearest hit of the ray from ``o`` along ``d`` that is not cut away; with
+        ``first_found`` (the 4-wide variant) ``first`` is its first query's answer."""
         out = RayHit()
         out.face = -1
         origin = o
+        given = first_found
         for _layer in range(MAX_LAYERS):
             if wp.static(wide):
-                q = wide_closest(occ.scene_wide, origin, d, wp.inf)
+                q = first
+                if not given:
+                    q = wide_closest(occ.scene_wide, origin, d, wp.inf)
+                given = False
             else:
                 q = wp.mesh_query_ray(scene.mesh, origin, d, wp.inf)
             if not q.result:
@@ -368,21 +476,26 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
         return out
 
     @wp.func(inline=True)
-    def trace_item(
+    def begin_item(
         scene: SceneGPU,
         amb: AmbientGPU,
         tf: TraceFrame,
         color: wp.array2d(dtype=wp.vec3),
         item: int,
         primary_direct: wp.vec3,
-    ):
-        """The traced radiance of list item ``item``'s pixel into ``color``, its ray counts
-        into ``tf.counts``; ``primary_direct``: the lights' sum at its primary point."""
+    ) -> PathStart:
+        """List item ``item``'s path up to its primary point: that point shaded
+        (``primary_direct``: its lights' sum) and the rays it goes on with; a pixel that
+        sees no surface gets the dome (its colour and counts written, ``live`` 0)."""
+        out = PathStart()
+        out.live = 0
+        out.next = no_ray()
+        out.pushed = no_ray()
         xy = listed_pixel(tf.pixels, item, tf.cam.width, tf.cam.height)
         x = xy[0]
         y = xy[1]
         if x < 0:
-            return
+            return out
         pixel = y * tf.cam.width + x
         if tf.gb.triangle_id[y, x] < 0:
             bg = wp.vec3(0.0, 0.0, 0.0)
@@ -392,7 +505,7 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
             tf.counts[item, 1] = 0
             tf.counts[item, 2] = 0
             tf.counts[item, 3] = 0
-            return
+            return out
 
         d = wp.normalize(tf.gb.position[y, x] - tf.cam.origin)
         face = tf.gb.triangle_id[y, x]
@@ -402,11 +515,58 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
                 h.front_face = facing_front(scene, face, d)
         bound = float(0.0)  # the primary point's shadow rays are the shadow kernel's
         cone_length = wp.length(h.position - tf.cam.origin)
-        weight = wp.vec3(1.0, 1.0, 1.0)
-        depth = int(0)
-        segment = int(0)
-        radiance = wp.vec3(0.0, 0.0, 0.0)
-        shadow_rays = int(0)
+        s = shade_hit(
+            scene,
+            amb,
+            tf,
+            item,
+            pixel,
+            0,
+            h,
+            bound,
+            d,
+            wp.vec3(1.0, 1.0, 1.0),
+            0,
+            cone_length,
+            True,
+            primary_direct,
+        )
+        if s.next.kind != KIND_NONE or s.pushed.kind != KIND_NONE:
+            bound = hit_bound(scene, face)  # only now: the corners are a random fetch
+        out.live = 1
+        out.radiance = wp.vec3(0.0, 0.0, 0.0)
+        out.radiance += s.radiance
+        out.shadow_rays = s.shadow_rays
+        out.next = s.next
+        out.next.origin = leaving_origin(s.next, h.geometric_normal, bound)
+        if s.pushed.kind != KIND_NONE:
+            out.pushed = s.pushed
+            out.pushed.origin = leaving_origin(s.pushed, h.geometric_normal, bound)
+        return out
+
+    @wp.func(inline=True)
+    def finish_item(
+        scene: SceneGPU,
+        amb: AmbientGPU,
+        tf: TraceFrame,
+        color: wp.array2d(dtype=wp.vec3),
+        item: int,
+        start: PathStart,
+        first_hit: WideHit,
+        first_found: bool,
+    ):
+        """List item ``item``'s path on from ``start`` (``begin_item``): its rays traced
+        and their hits shaded, the radiance into ``color`` and the ray counts into
+        ``tf.counts``.  With ``first_found`` the first ray's nearest hit is ``first_hit``
+        (the group's packet query) instead of a query of its own."""
+        if start.live == 0:
+            return
+        xy = listed_pixel(tf.pixels, item, tf.cam.width, tf.cam.height)
+        x = xy[0]
+        y = xy[1]
+        pixel = y * tf.cam.width + x
+        radiance = start.radiance
+        shadow_rays = start.shadow_rays
         reflect_rays = int(0)
         refract_rays = int(0)
         # PathStack: the pushed branches, one column per field.
@@ -417,9 +577,25 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
         stack_kind = _stack_ints()
         stack_cone = _stack_floats()
         stack_size = int(0)
-        have_hit = int(1)
+        if start.pushed.kind != KIND_NONE:
+            stack_origin[0] = start.pushed.origin
+            stack_direction[0] = start.pushed.direction
+            stack_weight[0] = start.pushed.weight
+            stack_depth[0] = start.pushed.depth
+            stack_kind[0] = start.pushed.kind
+            stack_cone[0] = start.pushed.cone_length
+            stack_size = 1
+        ray = start.next
+        segment = int(1)
+        have_hit = int(0)
+        given = first_found
+        h = SurfaceHit()
+        bound = float(0.0)
+        d = wp.vec3(0.0, 0.0, 0.0)
+        weight = wp.vec3(0.0, 0.0, 0.0)
+        depth = int(0)
+        cone_length = float(0.0)
         while True:
-            ray = no_ray()
             if have_hit != 0:
                 have_hit = 0
                 can_push = stack_size < wp.static(MAX_DEPTH)
@@ -437,10 +613,8 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
                     depth,
                     cone_length,
                     can_push,
-                    primary_direct,
+                    wp.vec3(0.0, 0.0, 0.0),
                 )
-                if segment == 0 and (s.next.kind != KIND_NONE or s.pushed.kind != KIND_NONE):
-                    bound = hit_bound(scene, face)  # only now: the corners are a random fetch
                 segment += 1
                 radiance += s.radiance
                 shadow_rays += s.shadow_rays
@@ -472,7 +646,8 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
                 reflect_rays += 1
             else:
                 refract_rays += 1
-            hit = closest_hit(scene, tf.occ, ray.origin, ray.direction)
+            hit = closest_hit(scene, tf.occ, ray.origin, ray.direction, first_hit, given)
+            given = False
             if hit.face >= 0:
                 footprint = wp.vec4(0.0, 0.0, 0.0, 0.0)
                 if samples_textures(scene, hit.face):
@@ -487,6 +662,7 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
             else:
                 if wp.static(environment):
                     radiance += wp.cw_mul(ray.weight, environment_radiance(scene, ray.direction))
+            ray = no_ray()  # traced: the next comes from this hit or the stack
         color[y, x] = radiance
         tf.counts[item, 1] = shadow_rays
         tf.counts[item, 2] = reflect_rays
@@ -507,7 +683,42 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
         direct = GroupDirect()
         if wp.static(shadows):
             direct = primary_direct(scene, tf, first, last, transparency)
-        for item in range(first, last):
-            trace_item(scene, amb, tf, color, item, direct[item - first])
+        if wp.static(wide and secondary):
+            # the group's paths up to their primary points, then the first ray of each
+            # as packets (neighbouring pixels' reflections and refractions share the
+            # nodes they visit), then each path on from its first hit
+            starts = _group_starts()
+            first_hits = _group_hits()
+            given = _group_flags()
+            packet_o = _packet_vec3s()
+            packet_d = _packet_vec3s()
+            for item in range(first, last):
+                starts[item - first] = _start_row(begin_item(scene, amb, tf, color, item, direct[item - first]))
+            for p in range(wp.static(ITEM_GROUP // PACKET)):
+                packet_t = _packet_floats()  # 0: no ray in the lane
+                rays = int(0)
+                for k in range(PACKET):
+                    j = p * PACKET + k
+                    if first + j < last:
+                        if starts[j, _LIVE] != 0.0 and starts[j, _NEXT + _KIND] != float(KIND_NONE):
+                            packet_o[k] = wp.vec3(starts[j, _NEXT], starts[j, _NEXT + 1], starts[j, _NEXT + 2])
+                            packet_d[k] = wp.vec3(starts[j, _NEXT + 3], starts[j, _NEXT + 4], starts[j, _NEXT + 5])
+                            packet_t[k] = wp.inf
+                            rays += 1
+                if rays >= _PACKET_MIN:
+                    found = wide_closest_packet(tf.occ.scene_wide, packet_o, packet_d, packet_t)
+                    for k in range(PACKET):
+                        if packet_t[k] > 0.0:
+                            first_hits[p * PACKET + k] = found[k]
+                            given[p * PACKET + k] = 1
+            for item in range(first, last):
+                j = item - first
+                finish_item(
+                    scene, amb, tf, color, item, _row_start(starts[j]), hit_from_row(first_hits[j]), given[j] != 0
+                )
+        else:
+            for item in range(first, last):
+                st = begin_item(scene, amb, tf, color, item, direct[item - first])
+                finish_item(scene, amb, tf, color, item, st, WideHit(), False)
 
     return trace_path

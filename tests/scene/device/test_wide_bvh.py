@@ -13,6 +13,7 @@ from warp_hybrid.scene.device.wide_bvh import (
     WideBVH,
     WideBVHGPU,
     packet_any_hits,
+    packet_closest_hits,
     wide_any_hit,
     wide_closest,
 )
@@ -67,6 +68,17 @@ def _packet_blocked(wide: WideBVH, o: np.ndarray, d: np.ndarray, max_t: np.ndarr
     inputs.append(wp.array(max_t, dtype=wp.float32, device=CPU))
     wp.launch(packet_any_hits, -(-n // PACKET), [wide.gpu, *inputs, blocked], device=CPU)
     return blocked.numpy()
+
+
+def _packet_closest(wide: WideBVH, o: np.ndarray, d: np.ndarray, max_t: np.ndarray) -> tuple:
+    """``wide_closest_packet``'s hits (face, t, u, v) and normals for consecutive packets of the rays."""
+    n = len(o)
+    hits = wp.zeros(n, dtype=wp.vec4, device=CPU)
+    normals = wp.zeros(n, dtype=wp.vec3, device=CPU)
+    inputs = [wp.array(o, dtype=wp.vec3, device=CPU), wp.array(d, dtype=wp.vec3, device=CPU)]
+    inputs.append(wp.array(max_t, dtype=wp.float32, device=CPU))
+    wp.launch(packet_closest_hits, -(-n // PACKET), [wide.gpu, *inputs, hits, normals], device=CPU)
+    return hits.numpy(), normals.numpy()
 
 
 def _queries(kernel: wp.Kernel, first: object, o: np.ndarray, d: np.ndarray, max_t: np.ndarray) -> tuple:
@@ -126,6 +138,10 @@ def _assert_same_answers(mesh: wp.Mesh, wide: WideBVH, o: np.ndarray, d: np.ndar
     wide_hit, wide_n, wide_block = _queries(_wide_queries, wide.gpu, o, d, max_t)
     np.testing.assert_array_equal(wide_block, warp_block)
     np.testing.assert_array_equal(_packet_blocked(wide, o, d, max_t), warp_block)
+    packet_hit, packet_n = _packet_closest(wide, o, d, max_t)
+    np.testing.assert_array_equal(packet_hit, wide_hit)  # the same hit bit for bit, a tie's face too
+    found = wide_hit[:, 0] >= 0
+    np.testing.assert_array_equal(packet_n[found], wide_n[found])
     np.testing.assert_array_equal(wide_hit[:, 0] >= 0, warp_hit[:, 0] >= 0)
     np.testing.assert_array_equal(wide_hit[:, 1], warp_hit[:, 1])  # the nearest distance, always
     same = wide_hit[:, 0] == warp_hit[:, 0]
@@ -178,6 +194,40 @@ def test_packets_of_neighbouring_shadow_rays_answer_as_one_at_a_time() -> None:
     np.testing.assert_array_equal(blocked, single)
     assert 0.2 < single.mean() < 0.9 and not blocked[np.isnan(max_t) | (max_t <= 0.0)].any()
     _assert_same_answers(mesh, wide, o, d, max_t)
+
+
+def test_a_tie_goes_to_the_first_triangle_in_leaf_order() -> None:
+    """Rays straight down through a grid's shared edges and corners meet two to six
+    triangles at exactly the same distance: the single-ray and the packet query both
+    answer the one first in the tree's leaf order, whatever order they visit the nodes in."""
+    points, indices = _grid(16, 4.0)
+    mesh = _mesh(points, indices)
+    wide = WideBVH(mesh, len(indices))
+    xs, ys = np.meshgrid(np.arange(1.0, 16.0, 0.5), np.arange(1.0, 16.0, 0.5))
+    o = np.stack([xs.ravel(), ys.ravel(), np.full(xs.size, 10.0)], 1).astype(np.float32)
+    d = np.tile(np.array([0.0, 0.0, -1.0], np.float32), (len(o), 1))
+    max_t = np.full(len(o), 1.0e30, np.float32)
+    single = _queries(_wide_queries, wide.gpu, o, d, max_t)[0]
+    np.testing.assert_array_equal(_packet_closest(wide, o, d, max_t)[0], single)
+    np.testing.assert_array_equal(single[:, 1], 6.0)
+    # the triangles each ray's point lies in (on an edge or a corner: several), first in leaf order
+    corners = points[indices].astype(np.float64)[None, :, :, :2]  # (1, T, 3, 2)
+    p = o[:, None, None, :2].astype(np.float64)
+    a, b, c = corners[:, :, 0], corners[:, :, 1], corners[:, :, 2]
+
+    def edge(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+        return (v[..., 0] - u[..., 0]) * (p[:, :, 0, 1] - u[..., 1]) - (v[..., 1] - u[..., 1]) * (
+            p[:, :, 0, 0] - u[..., 0]
+        )
+
+    e = np.stack([edge(a, b), edge(b, c), edge(c, a)], -1)
+    inside = (e >= 0.0).all(-1) | (e <= 0.0).all(-1)
+    slot_of_face = np.empty(len(indices), np.int64)
+    slot_of_face[wide.gpu.faces.numpy()] = np.arange(len(indices))
+    slots = np.where(inside, slot_of_face[None, :], len(indices))
+    expected = wide.gpu.faces.numpy()[slots.min(1)]
+    assert (inside.sum(1) >= 2).all()  # every ray meets a tie
+    np.testing.assert_array_equal(single[:, 0], expected)
 
 
 def test_a_refit_copies_the_moved_boxes_and_corners() -> None:

@@ -13,14 +13,16 @@ Warp's triangles and its watertight triangle test (``intersect_ray_tri_woop``), 
 ray's part of it once per ray and the triangle's part for four of a leaf's triangles at
 once, each lane Warp's arithmetic operation for operation, so the answers are Warp's
 whatever the tree: the same face, distance and barycentrics
-(``tests/scene/device/test_wide_bvh.py``); a hit at exactly the same distance as another
-may be found in the other order.
+(``tests/scene/device/test_wide_bvh.py``); where two triangles are hit at exactly the
+same distance (a shared edge) the one first in the tree's leaf order is the answer, which
+may be the other one than Warp's.
 
 ``wide_closest`` is ``wp.mesh_query_ray`` (nearest hit, children visited near first,
 a child skipped once its entry distance is past the nearest hit); ``wide_any_hit`` is
 ``wp.mesh_query_ray_anyhit``; ``wide_any_hit_packet`` answers ``PACKET`` rays' any-hits
 at once, each ray's answer ``wide_any_hit``'s (the primary shadow pass's query: a row of
-pixels' rays toward one light share the nodes they visit).  The slab test widens its far distance by
+pixels' rays toward one light share the nodes they visit), and ``wide_closest_packet``
+their nearest hits, each ``wide_closest``'s bit for bit (the path kernel's first rays).  The slab test widens its far distance by
 ``1 + 2 gamma(3)`` (pbrt-v4's robust ray-box test), so rounding never culls a box the
 ray touches, and an axis the ray does not move along tests the origin against the slab
 (as Warp's robust test does), so rays along a box's face still enter it.  Measured on
@@ -265,10 +267,10 @@ SLAB_SPAN
                 Cx[j] = t[6 + kx] - o[kx]; Cy[j] = t[6 + ky] - o[ky]; Cz[j] = t[6 + kz] - o[kz];
             }
 WATERTIGHT_LANES
-            keep &= (tt < best) & (tt >= 0.0f);
+            keep &= (tt <= best) & (tt >= 0.0f);
             if (!__builtin_reduce_or(keep)) continue;
-            for (int j = 0; j < n; ++j) {  // in leaf order, as Warp's loop
-                if (keep[j] && tt[j] < best) {
+            for (int j = 0; j < n; ++j) {  // the nearest; at equal distances the first in leaf order
+                if (keep[j] && (tt[j] < best || (tt[j] == best && g + j < best_k))) {
                     if (ANY) return HIT;
                     best = tt[j]; best_k = g + j; best_u = U[j] * rcp[j]; best_v = V[j] * rcp[j];
                 }
@@ -358,22 +360,19 @@ PACKET = 8
 _packet_points = wp.types.matrix(shape=(PACKET, 3), dtype=wp.float32)
 _packet_floats = wp.types.vector(length=PACKET, dtype=wp.float32)
 
-# The any-hit query for a packet of PACKET rays at once: each node's children are tested
-# one box at a time against every ray still unblocked that entered the node (the box
-# test and, in the leaves, Warp's watertight triangle test, lane for lane the same
-# operations as the single-ray query above, so each ray enters the same nodes and gets
-# the same answer), a child taken or pushed with the mask of the rays that enter it.
-# The triangle part permutes each ray's coordinates by its own dominant axis: broadcast
-# once for a packet whose rays share one (the common case), lane by lane otherwise.
-# Every level pushes at most three children, as the single-ray query, so the stack of
-# STACK entries never fills.
-_ANY_PACKET = """
-#if defined(__CUDA_ARCH__)
-return 0;
-#else
-typedef float vPf __attribute__((ext_vector_type(PACKET)));
+# The packet queries: PACKET rays at once, each node's children tested one box at a time
+# against every ray of the packet still in play that entered the node (the box test and,
+# in the leaves, Warp's watertight triangle test, lane for lane the same operations as the
+# single-ray queries above, so each ray gets the same answer).  Pieces both share:
+# _PACKET_RAYS, the rays' part of both tests across the lanes (``MISS`` for an empty
+# tree); _PACKET_BOX, child j's entry and exit distances for every lane (box pointer b);
+# _PACKET_CORNERS, triangle g's corners relative to each ray's origin, permuted by its own
+# dominant axis (broadcast once for a packet whose rays share one, the common case, lane
+# by lane otherwise).  Every level pushes at most three children, as the single-ray
+# query, so the stack of STACK entries never fills.
+_PACKET_RAYS = """typedef float vPf __attribute__((ext_vector_type(PACKET)));
 typedef int vPi __attribute__((ext_vector_type(PACKET)));
-if (nodes <= 0) return 0;
+if (nodes <= 0) return MISS;
 const float* nb = node_data.data;
 const int* lv = leaves.data;
 const float* tv = corners.data;
@@ -409,6 +408,43 @@ const int lead = live != 0 ? __builtin_ctz(live) : 0;
 const unsigned same = (unsigned)__builtin_reduce_or((kx == kx[lead]) & (ky == ky[lead]) & (kz == kz[lead]) & lane_bit);
 const bool uniform = (same & live) == live;
 const bool any_flat = __builtin_reduce_or(flat_x | flat_y | flat_z) != 0;
+"""
+_PACKET_BOX = """vPf t0x = (b[0 + j] - ox) * ix, t1x = (b[12 + j] - ox) * ix;
+vPf t0y = (b[4 + j] - oy) * iy, t1y = (b[16 + j] - oy) * iy;
+vPf t0z = (b[8 + j] - oz) * iz, t1z = (b[20 + j] - oz) * iz;
+if (any_flat) {
+    const vPi in_x = (b[0 + j] <= ox) & (ox <= b[12 + j]);
+    const vPi in_y = (b[4 + j] <= oy) & (oy <= b[16 + j]);
+    const vPi in_z = (b[8 + j] <= oz) & (oz <= b[20 + j]);
+    t0x = flat_x ? (in_x ? (vPf)-FLT_MAX : (vPf)FLT_MAX) : t0x; t1x = flat_x ? (vPf)FLT_MAX : t1x;
+    t0y = flat_y ? (in_y ? (vPf)-FLT_MAX : (vPf)FLT_MAX) : t0y; t1y = flat_y ? (vPf)FLT_MAX : t1y;
+    t0z = flat_z ? (in_z ? (vPf)-FLT_MAX : (vPf)FLT_MAX) : t0z; t1z = flat_z ? (vPf)FLT_MAX : t1z;
+}
+SLAB_SPAN
+"""
+_PACKET_CORNERS = """const float* t = tv + 9 * g;
+vPf Ax, Ay, Az, Bx, By, Bz, Cx, Cy, Cz;
+if (uniform) {
+    const int ux = kx[lead], uy = ky[lead], uz = kz[lead];
+    Ax = t[ux] - okx; Ay = t[uy] - oky; Az = t[uz] - okz;
+    Bx = t[3 + ux] - okx; By = t[3 + uy] - oky; Bz = t[3 + uz] - okz;
+    Cx = t[6 + ux] - okx; Cy = t[6 + uy] - oky; Cz = t[6 + uz] - okz;
+} else {
+    for (int j = 0; j < PACKET; ++j) {
+        Ax[j] = t[kx[j]] - okx[j]; Ay[j] = t[ky[j]] - oky[j]; Az[j] = t[kz[j]] - okz[j];
+        Bx[j] = t[3 + kx[j]] - okx[j]; By[j] = t[3 + ky[j]] - oky[j]; Bz[j] = t[3 + kz[j]] - okz[j];
+        Cx[j] = t[6 + kx[j]] - okx[j]; Cy[j] = t[6 + ky[j]] - oky[j]; Cz[j] = t[6 + kz[j]] - okz[j];
+    }
+}
+"""
+
+# The any-hit query: a child is taken or pushed with the mask of the rays that enter it,
+# in lane order; a ray leaves the packet once blocked.
+_ANY_PACKET = """
+#if defined(__CUDA_ARCH__)
+return 0;
+#else
+PACKET_RAYS
 const int none = NO_CHILD;
 unsigned blocked = 0;
 int stack[STACK];
@@ -427,18 +463,7 @@ while (sp > 0) {
         unsigned next_m = 0;
         for (int j = 0; j < 4; ++j) {
             if (c[j] == none) continue;
-            vPf t0x = (b[0 + j] - ox) * ix, t1x = (b[12 + j] - ox) * ix;
-            vPf t0y = (b[4 + j] - oy) * iy, t1y = (b[16 + j] - oy) * iy;
-            vPf t0z = (b[8 + j] - oz) * iz, t1z = (b[20 + j] - oz) * iz;
-            if (any_flat) {
-                const vPi in_x = (b[0 + j] <= ox) & (ox <= b[12 + j]);
-                const vPi in_y = (b[4 + j] <= oy) & (oy <= b[16 + j]);
-                const vPi in_z = (b[8 + j] <= oz) & (oz <= b[20 + j]);
-                t0x = flat_x ? (in_x ? (vPf)-FLT_MAX : (vPf)FLT_MAX) : t0x; t1x = flat_x ? (vPf)FLT_MAX : t1x;
-                t0y = flat_y ? (in_y ? (vPf)-FLT_MAX : (vPf)FLT_MAX) : t0y; t1y = flat_y ? (vPf)FLT_MAX : t1y;
-                t0z = flat_z ? (in_z ? (vPf)-FLT_MAX : (vPf)FLT_MAX) : t0z; t1z = flat_z ? (vPf)FLT_MAX : t1z;
-            }
-SLAB_SPAN
+PACKET_BOX
             const unsigned em = (unsigned)__builtin_reduce_or((near_t <= far_t) & (near_t <= tmax) & lane_bit) & m;
             if (em == 0) continue;
             if (next == none) { next = c[j]; next_m = em; }
@@ -451,20 +476,7 @@ SLAB_SPAN
     const int leaf = -cur - 1;
     const int leaf_end = lv[2 * leaf + 1];
     for (int g = lv[2 * leaf]; g < leaf_end && (m & ~blocked) != 0; ++g) {
-        const float* t = tv + 9 * g;
-        vPf Ax, Ay, Az, Bx, By, Bz, Cx, Cy, Cz;
-        if (uniform) {
-            const int ux = kx[lead], uy = ky[lead], uz = kz[lead];
-            Ax = t[ux] - okx; Ay = t[uy] - oky; Az = t[uz] - okz;
-            Bx = t[3 + ux] - okx; By = t[3 + uy] - oky; Bz = t[3 + uz] - okz;
-            Cx = t[6 + ux] - okx; Cy = t[6 + uy] - oky; Cz = t[6 + uz] - okz;
-        } else {
-            for (int j = 0; j < PACKET; ++j) {
-                Ax[j] = t[kx[j]] - okx[j]; Ay[j] = t[ky[j]] - oky[j]; Az[j] = t[kz[j]] - okz[j];
-                Bx[j] = t[3 + kx[j]] - okx[j]; By[j] = t[3 + ky[j]] - oky[j]; Bz[j] = t[3 + kz[j]] - okz[j];
-                Cx[j] = t[6 + kx[j]] - okx[j]; Cy[j] = t[6 + ky[j]] - oky[j]; Cz[j] = t[6 + kz[j]] - okz[j];
-            }
-        }
+PACKET_CORNERS
 WATERTIGHT_LANES
         keep &= (tt < tmax) & (tt >= 0.0f);
         blocked |= (unsigned)__builtin_reduce_or(keep & lane_bit) & m;
@@ -474,17 +486,109 @@ return (int)blocked;
 #endif
 """
 
+# The closest-hit query: each ray's nearest hit so far in ``best`` (its leaf-order index
+# ``best_k``, the same (distance, index) rule as ``_closest``, so the order the packet
+# visits the nodes in does not matter); the children a node's rays enter are taken
+# nearest first (by the least entry distance over their rays), the others pushed with
+# their rays and those rays' entry distances, and a popped node goes on only with the
+# rays whose nearest hit is not nearer than where they enter it.
+_CLOSEST_PACKET = """
+#if defined(__CUDA_ARCH__)
+return MISS;
+#else
+PACKET_RAYS
+const int none = NO_CHILD;
+vPf best = tmax;
+vPi best_k = -1;
+vPf best_u = 0.0f, best_v = 0.0f;
+int stack[STACK];
+unsigned stack_m[STACK];
+vPf stack_t[STACK];
+int sp = 0;
+if (live != 0) { stack[0] = 0; stack_m[0] = live; stack_t[0] = 0.0f; sp = 1; }
+while (sp > 0) {
+    --sp;
+    int cur = stack[sp];
+    unsigned m = stack_m[sp] & (unsigned)__builtin_reduce_or((stack_t[sp] <= best) & lane_bit);
+    if (m == 0) continue;
+    while (cur >= 0) {
+        const float* b = nb + NODE_FLOATS * cur;
+        const int* c = (const int*)(b + CHILD_LANES);
+        int hit_c[4];
+        unsigned hit_m[4];
+        float hit_key[4];
+        vPf hit_t[4];
+        int hits = 0;
+        for (int j = 0; j < 4; ++j) {
+            if (c[j] == none) continue;
+PACKET_BOX
+            const vPi in = (near_t <= far_t) & (near_t <= best) & (((vPi)(int)m & lane_bit) != 0);
+            const unsigned em = (unsigned)__builtin_reduce_or(in & lane_bit);
+            if (em == 0) continue;
+            const float key = __builtin_reduce_min(in ? near_t : (vPf)INFINITY);
+            int q = hits++;
+            while (q > 0 && hit_key[q - 1] > key) {
+                hit_key[q] = hit_key[q - 1]; hit_c[q] = hit_c[q - 1]; hit_m[q] = hit_m[q - 1]; hit_t[q] = hit_t[q - 1];
+                --q;
+            }
+            hit_key[q] = key; hit_c[q] = c[j]; hit_m[q] = em; hit_t[q] = near_t;
+        }
+        if (hits == 0) { cur = none; break; }
+        for (int q = hits - 1; q >= 1; --q) { stack[sp] = hit_c[q]; stack_m[sp] = hit_m[q]; stack_t[sp] = hit_t[q]; ++sp; }
+        cur = hit_c[0];
+        m = hit_m[0];
+    }
+    if (cur == none) continue;
+    const int leaf = -cur - 1;
+    const int leaf_end = lv[2 * leaf + 1];
+    const vPi in_play = ((vPi)(int)m & lane_bit) != 0;
+    for (int g = lv[2 * leaf]; g < leaf_end; ++g) {
+PACKET_CORNERS
+WATERTIGHT_LANES
+        keep &= in_play & (tt >= 0.0f) & ((tt < best) | ((tt == best) & (g < best_k)));
+        if (!__builtin_reduce_or(keep)) continue;
+        best = keep ? tt : best;
+        best_k = keep ? (vPi)g : best_k;
+        best_u = keep ? U * rcp : best_u;
+        best_v = keep ? V * rcp : best_v;
+    }
+}
+wp::mat_t<PACKET, 8, float> out;
+for (int j = 0; j < PACKET; ++j) {
+    for (int e = 0; e < 8; ++e) out.data[j][e] = -1.0f;
+    const int k = best_k[j];
+    if (k < 0) continue;
+    const float* t = tv + 9 * k;
+    const wp::vec3 a(t[0], t[1], t[2]);
+    const wp::vec3 n = wp::normalize(wp::cross(wp::vec3(t[3], t[4], t[5]) - a, wp::vec3(t[6], t[7], t[8]) - a));
+    out.data[j][0] = (float)faces.data[k];
+    out.data[j][1] = best[j]; out.data[j][2] = best_u[j]; out.data[j][3] = best_v[j];
+    out.data[j][4] = n[0]; out.data[j][5] = n[1]; out.data[j][6] = n[2]; out.data[j][7] = 1.0f;
+}
+return out;
+#endif
+"""
 
-@wp.func_native(
-    _ANY_PACKET.replace("WIDEN", _WIDEN)
-    .replace("SLAB_SPAN", _lanes(_SLAB_SPAN, "vPf", "vPi", "PACKET"))
-    .replace("WATERTIGHT_LANES", _lanes(_WATERTIGHT_LANES, "vPf", "vPi", "PACKET"))
-    .replace("PACKET", str(PACKET))
-    .replace("STACK", str(STACK_SIZE))
-    .replace("NODE_FLOATS", str(NODE_FLOATS))
-    .replace("CHILD_LANES", str(CHILD_LANES))
-    .replace("NO_CHILD", NO_CHILD_C)
-)
+
+def _packet_query(body: str, miss: str) -> str:
+    """A packet query's C++: ``body`` with the shared pieces and the constants filled in."""
+    return (
+        body.replace("PACKET_RAYS", _PACKET_RAYS)
+        .replace("MISS", miss)
+        .replace("PACKET_BOX", _PACKET_BOX)
+        .replace("PACKET_CORNERS", _PACKET_CORNERS)
+        .replace("WIDEN", _WIDEN)
+        .replace("SLAB_SPAN", _lanes(_SLAB_SPAN, "vPf", "vPi", "PACKET"))
+        .replace("WATERTIGHT_LANES", _lanes(_WATERTIGHT_LANES, "vPf", "vPi", "PACKET"))
+        .replace("PACKET", str(PACKET))
+        .replace("STACK", str(STACK_SIZE))
+        .replace("NODE_FLOATS", str(NODE_FLOATS))
+        .replace("CHILD_LANES", str(CHILD_LANES))
+        .replace("NO_CHILD", NO_CHILD_C)
+    )
+
+
+@wp.func_native(_packet_query(_ANY_PACKET, "0"))
 def _any_packet(
     node_data: wp.array(dtype=wp.float32),
     leaves: wp.array(dtype=wp.int32),
@@ -494,6 +598,23 @@ def _any_packet(
     d: _packet_points,
     max_t: _packet_floats,
 ) -> int: ...
+
+
+#: A packet's closest hits: row j ray j's, as ``_closest`` gives one.
+_packet_hits = wp.types.matrix(shape=(PACKET, 8), dtype=wp.float32)
+
+
+@wp.func_native(_packet_query(_CLOSEST_PACKET, f"wp::mat_t<{PACKET}, 8, float>(-1.0f)"))
+def _closest_packet(
+    node_data: wp.array(dtype=wp.float32),
+    leaves: wp.array(dtype=wp.int32),
+    corners: wp.array(dtype=wp.float32),
+    faces: wp.array(dtype=wp.int32),
+    nodes: int,
+    o: _packet_points,
+    d: _packet_points,
+    max_t: _packet_floats,
+) -> _packet_hits: ...
 
 
 @wp.struct
@@ -510,9 +631,9 @@ class WideHit:
 
 
 @wp.func
-def wide_closest(bvh: WideBVHGPU, o: wp.vec3, d: wp.vec3, max_t: float) -> WideHit:
-    """The nearest hit of the ray ``o + t d``, 0 <= t < ``max_t`` (``wp.mesh_query_ray``)."""
-    r = _closest(bvh.node_data, bvh.leaves, bvh.corners, bvh.faces, bvh.nodes, o, d, max_t)
+def hit_from_row(r: _hit8) -> WideHit:
+    """A ``WideHit`` from a query's (face, t, u, v, normal x, y, z, found) row: ``_closest``'s
+    answer, or a row of ``wide_closest_packet``'s."""
     h = WideHit()
     h.result = r[7] > 0.0
     h.face = int(r[0])
@@ -521,6 +642,12 @@ def wide_closest(bvh: WideBVHGPU, o: wp.vec3, d: wp.vec3, max_t: float) -> WideH
     h.v = r[3]
     h.normal = wp.vec3(r[4], r[5], r[6])
     return h
+
+
+@wp.func
+def wide_closest(bvh: WideBVHGPU, o: wp.vec3, d: wp.vec3, max_t: float) -> WideHit:
+    """The nearest hit of the ray ``o + t d``, 0 <= t < ``max_t`` (``wp.mesh_query_ray``)."""
+    return hit_from_row(_closest(bvh.node_data, bvh.leaves, bvh.corners, bvh.faces, bvh.nodes, o, d, max_t))
 
 
 @wp.func
@@ -538,6 +665,46 @@ def wide_any_hit_packet(bvh: WideBVHGPU, o: _packet_points, d: _packet_points, m
     pixels toward one light) share the nodes they visit, about 2.4x faster than one at a
     time on the staircase's shadow rays."""
     return _any_packet(bvh.node_data, bvh.leaves, bvh.corners, bvh.nodes, o, d, max_t)
+
+
+@wp.func
+def wide_closest_packet(bvh: WideBVHGPU, o: _packet_points, d: _packet_points, max_t: _packet_floats) -> _packet_hits:
+    """``wide_closest`` for ``PACKET`` rays at once (rays as ``wide_any_hit_packet``'s):
+    row j ray j's hit (``hit_from_row`` reads it), the same answer as ``wide_closest`` ray by
+    ray, bit for bit (both take the nearest triangle, at equal distances the first in the
+    tree's leaf order)."""
+    return _closest_packet(bvh.node_data, bvh.leaves, bvh.corners, bvh.faces, bvh.nodes, o, d, max_t)
+
+
+@wp.kernel
+def packet_closest_hits(
+    bvh: WideBVHGPU,
+    o: wp.array(dtype=wp.vec3),
+    d: wp.array(dtype=wp.vec3),
+    max_t: wp.array(dtype=float),
+    hits: wp.array(dtype=wp.vec4),
+    normals: wp.array(dtype=wp.vec3),
+):
+    """The closest hits of a list of rays, rays ``PACKET * tid`` on as one packet
+    (``wide_closest_packet``): ``hits[i]`` (face, t, u, v) of ray i's hit, (-1, 0, 0, 0)
+    for none, ``normals[i]`` its face normal.  Launch ``ceil(len / PACKET)`` threads."""
+    first = wp.tid() * PACKET
+    po = _packet_points()
+    pd = _packet_points()
+    pt = _packet_floats()
+    for j in range(PACKET):
+        if first + j < o.shape[0]:
+            po[j] = o[first + j]
+            pd[j] = d[first + j]
+            pt[j] = max_t[first + j]
+    found = wide_closest_packet(bvh, po, pd, pt)
+    for j in range(PACKET):
+        if first + j < o.shape[0]:
+            h = hit_from_row(found[j])
+            hits[first + j] = wp.vec4(-1.0, 0.0, 0.0, 0.0)
+            if h.result:
+                hits[first + j] = wp.vec4(float(h.face), h.t, h.u, h.v)
+                normals[first + j] = h.normal
 
 
 @wp.kernel

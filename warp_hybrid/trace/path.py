@@ -680,45 +680,48 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
     ):
         first = start + wp.tid() * group
         last = wp.min(first + group, stop)
-        direct = GroupDirect()
-        if wp.static(shadows):
-            direct = primary_direct(scene, tf, first, last, transparency)
-        if wp.static(wide and secondary):
-            # the group's paths up to their primary points, then the first ray of each
-            # as packets (neighbouring pixels' reflections and refractions share the
-            # nodes they visit), then each path on from its first hit
-            starts = _group_starts()
-            first_hits = _group_hits()
-            given = _group_flags()
-            packet_o = _packet_vec3s()
-            packet_d = _packet_vec3s()
-            for item in range(first, last):
-                starts[item - first] = _start_row(begin_item(scene, amb, tf, color, item, direct[item - first]))
-            for p in range(wp.static(ITEM_GROUP // PACKET)):
-                packet_t = _packet_floats()  # 0: no ray in the lane
-                rays = int(0)
-                for k in range(PACKET):
-                    j = p * PACKET + k
-                    if first + j < last:
-                        if starts[j, _LIVE] != 0.0 and starts[j, _NEXT + _KIND] != float(KIND_NONE):
-                            packet_o[k] = wp.vec3(starts[j, _NEXT], starts[j, _NEXT + 1], starts[j, _NEXT + 2])
-                            packet_d[k] = wp.vec3(starts[j, _NEXT + 3], starts[j, _NEXT + 4], starts[j, _NEXT + 5])
-                            packet_t[k] = wp.inf
-                            rays += 1
-                if rays >= _PACKET_MIN:
-                    found = wide_closest_packet(tf.occ.scene_wide, packet_o, packet_d, packet_t)
+        # in chunks of ITEM_GROUP items (one chunk: ``group`` is ITEM_GROUP on the CPU, 1 on CUDA)
+        for chunk in range(first, last, ITEM_GROUP):
+            chunk_end = wp.min(chunk + ITEM_GROUP, last)
+            direct = GroupDirect()
+            if wp.static(shadows):
+                direct = primary_direct(scene, tf, chunk, chunk_end, transparency)
+            if wp.static(wide and secondary):
+                # the chunk's paths up to their primary points, then the first ray of each
+                # as packets (neighbouring pixels' reflections and refractions share the
+                # nodes they visit), then each path on from its first hit
+                starts = _group_starts()
+                first_hits = _group_hits()
+                given = _group_flags()
+                packet_o = _packet_vec3s()
+                packet_d = _packet_vec3s()
+                for item in range(chunk, chunk_end):
+                    starts[item - chunk] = _start_row(begin_item(scene, amb, tf, color, item, direct[item - chunk]))
+                for p in range(wp.static(ITEM_GROUP // PACKET)):
+                    packet_t = _packet_floats()  # 0: no ray in the lane
+                    rays = int(0)
                     for k in range(PACKET):
-                        if packet_t[k] > 0.0:
-                            first_hits[p * PACKET + k] = found[k]
-                            given[p * PACKET + k] = 1
-            for item in range(first, last):
-                j = item - first
-                finish_item(
-                    scene, amb, tf, color, item, _row_start(starts[j]), hit_from_row(first_hits[j]), given[j] != 0
-                )
-        else:
-            for item in range(first, last):
-                st = begin_item(scene, amb, tf, color, item, direct[item - first])
-                finish_item(scene, amb, tf, color, item, st, WideHit(), False)
+                        j = p * PACKET + k
+                        if chunk + j < chunk_end:
+                            if starts[j, _LIVE] != 0.0 and starts[j, _NEXT + _KIND] != float(KIND_NONE):
+                                packet_o[k] = wp.vec3(starts[j, _NEXT], starts[j, _NEXT + 1], starts[j, _NEXT + 2])
+                                packet_d[k] = wp.vec3(starts[j, _NEXT + 3], starts[j, _NEXT + 4], starts[j, _NEXT + 5])
+                                packet_t[k] = wp.inf
+                                rays += 1
+                    if rays >= _PACKET_MIN:
+                        found = wide_closest_packet(tf.occ.scene_wide, packet_o, packet_d, packet_t)
+                        for k in range(PACKET):
+                            if packet_t[k] > 0.0:
+                                first_hits[p * PACKET + k] = found[k]
+                                given[p * PACKET + k] = 1
+                for item in range(chunk, chunk_end):
+                    j = item - chunk
+                    finish_item(
+                        scene, amb, tf, color, item, _row_start(starts[j]), hit_from_row(first_hits[j]), given[j] != 0
+                    )
+            else:
+                for item in range(chunk, chunk_end):
+                    st = begin_item(scene, amb, tf, color, item, direct[item - chunk])
+                    finish_item(scene, amb, tf, color, item, st, WideHit(), False)
 
     return trace_path

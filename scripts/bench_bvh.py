@@ -35,6 +35,7 @@ from warp_hybrid.scene.device.wide_bvh import (
     PACKET,
     WideBVH,
     WideBVHGPU,
+    closest_hits,
     packet_any_hits,
     packet_closest_hits,
     wide_any_hit,
@@ -59,23 +60,6 @@ def wide_queries(
         out[i] = wp.vec2(wp.where(h.result, float(h.face), -1.0), h.t)
     else:
         out[i] = wp.vec2(wp.where(wide_any_hit(tree, o[i], d[i], max_t[i]), 1.0, 0.0), 0.0)
-
-
-@wp.kernel
-def closest_queries(
-    tree: WideBVHGPU,
-    o: wp.array(dtype=wp.vec3),
-    d: wp.array(dtype=wp.vec3),
-    max_t: wp.array(dtype=float),
-    out: wp.array(dtype=wp.vec4),
-):
-    """One closest hit a ray on the 4-wide BVH: (face, t, u, v), (-1, 0, 0, 0) for none
-    (``packet_closest_hits``'s layout)."""
-    i = wp.tid()
-    h = wide_closest(tree, o[i], d[i], max_t[i])
-    out[i] = wp.vec4(-1.0, 0.0, 0.0, 0.0)
-    if h.result:
-        out[i] = wp.vec4(float(h.face), h.t, h.u, h.v)
 
 
 @wp.kernel
@@ -176,7 +160,7 @@ def _closest_pair(tree: WideBVHGPU, o: wp.array, d: wp.array, max_t: wp.array) -
     one, packet = wp.zeros(n, dtype=wp.vec4), wp.zeros(n, dtype=wp.vec4)
     normals = wp.zeros(n, dtype=wp.vec3)
     launches = {
-        "one": lambda: wp.launch(closest_queries, n, [tree, o, d, max_t, one]),
+        "one": lambda: wp.launch(closest_hits, n, [tree, o, d, max_t, one, normals]),
         "packet": lambda: wp.launch(packet_closest_hits, -(-n // PACKET), [tree, o, d, max_t, packet, normals]),
     }
     return launches, (lambda: one.numpy(), lambda: packet.numpy())

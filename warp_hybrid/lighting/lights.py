@@ -135,9 +135,9 @@ def reach_sample(light: LightGPU, p: wp.vec3, n: wp.vec3) -> LightSample:
     return _light_sample(light, p, n, False)
 
 
-@wp.func_native(cpp("centre_reaches") + "return wh_centre_reaches(e_normal, n_dot_l);")
-def _centre_reaches(e_normal: wp.vec3, n_dot_l: float) -> bool:
-    """The light's centre lies above the horizon of ``p`` and gives it light."""
+@wp.func_native(cpp("light_reaches") + "return wh_light_reaches(irradiance, e_normal, n, wi);")
+def _light_reaches(irradiance: wp.vec3, e_normal: wp.vec3, n: wp.vec3, wi: wp.vec3) -> bool:
+    """``light_reaches`` given the sample's parts."""
     ...
 
 
@@ -146,8 +146,6 @@ def light_reaches(ls: LightSample, n: wp.vec3) -> bool:
     """The light contributes at all at a point with normal ``n`` (its unshadowed
     response is non-zero): some irradiance on the surface, or its centre above the
     horizon (the specular lobe's term).  The one rule for whether a shadow ray or a
-    shadow-map lookup is needed."""
-    irradiance = ls.irradiance
-    return wp.max(irradiance[0], wp.max(irradiance[1], irradiance[2])) > 0.0 or _centre_reaches(
-        ls.e_normal, wp.dot(n, ls.wi)
-    )
+    shadow-map lookup is needed (``wh_light_reaches``, which the shadow packets' row
+    loop calls too)."""
+    return _light_reaches(ls.irradiance, ls.e_normal, n, ls.wi)

@@ -296,6 +296,16 @@ auto wh_cone_factor = [&](const auto& light, const bool has_cone, const float co
     return n_dot_l > 0.0f && wp::max(e_normal[0], wp::max(e_normal[1], e_normal[2])) > 0.0f;
 };"""
     ),
+    # Whether a light contributes at all at a point with normal n (lights.py
+    # ``light_reaches``): some irradiance on the surface, or its centre above the horizon.
+    "light_reaches": Piece(
+        """auto wh_light_reaches = [&](const wp::vec3& irradiance, const wp::vec3& e_normal, const wp::vec3& n,
+                            const wp::vec3& wi) WH_INLINE -> bool {
+    return wp::max(irradiance[0], wp::max(irradiance[1], irradiance[2])) > 0.0f ||
+           wh_centre_reaches(e_normal, wp::dot(n, wi));
+};""",
+        ("centre_reaches",),
+    ),
     # What a light delivers at p (lights.py ``light_sample``): ``kind`` is the light's
     # kind (a literal in the row loop, where it folds away); ``exact``: a rect light's
     # exact irradiance everywhere, else only where the centre terms leave

@@ -703,9 +703,10 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
                     for k in range(PACKET):
                         j = p * PACKET + k
                         if chunk + j < chunk_end:
-                            if starts[j, _LIVE] != 0.0 and starts[j, _NEXT + _KIND] != float(KIND_NONE):
-                                packet_o[k] = wp.vec3(starts[j, _NEXT], starts[j, _NEXT + 1], starts[j, _NEXT + 2])
-                                packet_d[k] = wp.vec3(starts[j, _NEXT + 3], starts[j, _NEXT + 4], starts[j, _NEXT + 5])
+                            ray = _get_ray(starts[j], _NEXT)
+                            if starts[j, _LIVE] != 0.0 and ray.kind != KIND_NONE:
+                                packet_o[k] = ray.origin
+                                packet_d[k] = ray.direction
                                 packet_t[k] = wp.inf
                                 rays += 1
                     if rays >= _PACKET_MIN:

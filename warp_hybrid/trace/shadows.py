@@ -270,7 +270,7 @@ _group_reach = wp.types.matrix(shape=(SHADOW_GROUP, 5), dtype=wp.float32)
 
 
 @wp.func_native(
-    cpp("light_sample", "centre_reaches")
+    cpp("light_sample", "light_reaches")
     + f"""
 const bool has_cone = wh_has_cone(light);
 const float cos_inner = has_cone ? wh_cone_inner(light) : 0.0f;
@@ -281,8 +281,7 @@ auto lane = [&](const int kind, const int j) WH_INLINE {{
     wp::vec3 wi, e_normal, irradiance;
     float distance;
     wh_light_sample(light, kind, has_cone, cos_inner, p, n, false, WH_RECT_ONE, wi, distance, e_normal, irradiance);
-    const bool reaches = wp::max(irradiance[0], wp::max(irradiance[1], irradiance[2])) > 0.0f ||
-                         wh_centre_reaches(e_normal, wp::dot(n, wi));
+    const bool reaches = wh_light_reaches(irradiance, e_normal, n, wi);
     out.data[j][0] = wi[0]; out.data[j][1] = wi[1]; out.data[j][2] = wi[2];
     out.data[j][3] = distance;
     out.data[j][4] = reaches && live[j] >= 0 ? 1.0f : 0.0f;

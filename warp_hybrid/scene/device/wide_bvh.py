@@ -676,6 +676,51 @@ def wide_closest_packet(bvh: WideBVHGPU, o: _packet_points, d: _packet_points, m
     return _closest_packet(bvh.node_data, bvh.leaves, bvh.corners, bvh.faces, bvh.nodes, o, d, max_t)
 
 
+@wp.func
+def _listed_points(a: wp.array(dtype=wp.vec3), first: int) -> _packet_points:
+    """Rows ``first`` .. ``first + PACKET - 1`` of ``a`` (zero past its end)."""
+    out = _packet_points()
+    for j in range(PACKET):
+        if first + j < a.shape[0]:
+            out[j] = a[first + j]
+    return out
+
+
+@wp.func
+def _listed_lengths(a: wp.array(dtype=float), first: int) -> _packet_floats:
+    """Entries ``first`` .. ``first + PACKET - 1`` of ``a`` (0, no ray, past its end)."""
+    out = _packet_floats()
+    for j in range(PACKET):
+        if first + j < a.shape[0]:
+            out[j] = a[first + j]
+    return out
+
+
+@wp.func
+def _store_hit(hits: wp.array(dtype=wp.vec4), normals: wp.array(dtype=wp.vec3), i: int, h: WideHit):
+    """``hits[i]`` (face, t, u, v) of hit ``h``, (-1, 0, 0, 0) for none; ``normals[i]`` its
+    face normal where found."""
+    hits[i] = wp.vec4(-1.0, 0.0, 0.0, 0.0)
+    if h.result:
+        hits[i] = wp.vec4(float(h.face), h.t, h.u, h.v)
+        normals[i] = h.normal
+
+
+@wp.kernel
+def closest_hits(
+    bvh: WideBVHGPU,
+    o: wp.array(dtype=wp.vec3),
+    d: wp.array(dtype=wp.vec3),
+    max_t: wp.array(dtype=float),
+    hits: wp.array(dtype=wp.vec4),
+    normals: wp.array(dtype=wp.vec3),
+):
+    """``packet_closest_hits`` one ray a thread (``wide_closest``), the same outputs.
+    Launch ``len`` threads."""
+    i = wp.tid()
+    _store_hit(hits, normals, i, wide_closest(bvh, o[i], d[i], max_t[i]))
+
+
 @wp.kernel
 def packet_closest_hits(
     bvh: WideBVHGPU,
@@ -689,22 +734,13 @@ def packet_closest_hits(
     (``wide_closest_packet``): ``hits[i]`` (face, t, u, v) of ray i's hit, (-1, 0, 0, 0)
     for none, ``normals[i]`` its face normal.  Launch ``ceil(len / PACKET)`` threads."""
     first = wp.tid() * PACKET
-    po = _packet_points()
-    pd = _packet_points()
-    pt = _packet_floats()
-    for j in range(PACKET):
-        if first + j < o.shape[0]:
-            po[j] = o[first + j]
-            pd[j] = d[first + j]
-            pt[j] = max_t[first + j]
+    po = _listed_points(o, first)
+    pd = _listed_points(d, first)
+    pt = _listed_lengths(max_t, first)
     found = wide_closest_packet(bvh, po, pd, pt)
     for j in range(PACKET):
         if first + j < o.shape[0]:
-            h = hit_from_row(found[j])
-            hits[first + j] = wp.vec4(-1.0, 0.0, 0.0, 0.0)
-            if h.result:
-                hits[first + j] = wp.vec4(float(h.face), h.t, h.u, h.v)
-                normals[first + j] = h.normal
+            _store_hit(hits, normals, first + j, hit_from_row(found[j]))
 
 
 @wp.kernel
@@ -719,14 +755,9 @@ def packet_any_hits(
     (``wide_any_hit_packet``; the last packet's spare lanes carry no ray): ``blocked[i]``
     1 where ray i hits, else 0.  Launch ``ceil(len / PACKET)`` threads."""
     first = wp.tid() * PACKET
-    po = _packet_points()
-    pd = _packet_points()
-    pt = _packet_floats()
-    for j in range(PACKET):
-        if first + j < o.shape[0]:
-            po[j] = o[first + j]
-            pd[j] = d[first + j]
-            pt[j] = max_t[first + j]
+    po = _listed_points(o, first)
+    pd = _listed_points(d, first)
+    pt = _listed_lengths(max_t, first)
     bits = wide_any_hit_packet(bvh, po, pd, pt)
     for j in range(PACKET):
         if first + j < o.shape[0]:

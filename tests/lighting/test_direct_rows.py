@@ -119,7 +119,8 @@ def test_row_loop_matches_the_scalar_sum(device, lights, dome):
 
 def _dome(kind: str, rng: np.random.Generator) -> dict:
     """``make_scene`` arguments for no dome ("none"), a constant one ("constant") or one
-    with a random 32x64 lat-long texture ("textured": three mip levels, every SH band)."""
+    with a random 32x64 lat-long texture ("textured": scaled and biased, three mip levels,
+    every SH band)."""
     if kind == "none":
         return {}
     if kind == "constant":
@@ -127,7 +128,7 @@ def _dome(kind: str, rng: np.random.Generator) -> dict:
     pixels = rng.uniform(0.0, 2.0, (32, 64, 4)).astype(np.float32)
     return {
         "environment": Environment("dome", (0.9, 1.0, 1.1), texture=0),
-        "textures": [TextureBinding(0)],
+        "textures": [TextureBinding(0, scale=(1.5, 0.5, 1.0, 1.0), bias=(0.0, 0.25, 0.1, 0.0))],
         "images": [TextureImage("<sky>", pixels)],
     }
 

@@ -133,17 +133,58 @@ _UNSHADOWED_SUM_CPP = """
         }"""
 _LIGHTS_CPP = view_cpp(RASTER_KD_CPP) + light_loop_cpp(_UNSHADOWED_SUM_CPP)
 
+# The dome's texel reads of (4) (below), three bilinear fetches a pixel: ``fa`` the level its
+# lobe reads (level 0, the dome's own texture, on the background and without a mip chain),
+# ``fb`` the next level where the lobe lies between two, ``ft`` the dome straight behind
+# glass.  Each fetch's lane arrays: its four texels' element indices (``wh_latlong_footprint``),
+# its weights, and its bilinear value's three channels.
+_FETCHES = ("fa", "fb", "ft")
+_FETCH_ARRAYS_CPP = "\n".join(
+    f"int {f}00[CHUNK], {f}01[CHUNK], {f}10[CHUNK], {f}11[CHUNK];\nfloat {f}x[CHUNK], {f}y[CHUNK], {f}c[3][CHUNK];"
+    for f in _FETCHES
+)
+
+
+def _fetch_cpp(fetch: str, wanted: str, on_dome: str) -> str:
+    """C++ of (4b) for one fetch: for the lanes where ``wanted`` (a C++ condition on lane
+    ``j``) its bilinear value, from the dome's texels where ``on_dome`` (a condition on
+    ``j``; vec4 texels) or else the mip chain's (vec3), the four loads and the blend of
+    ``wh_latlong_bilinear``, channel by channel."""
+    f = fetch
+    return f"""
+        for (int j = 0; j < n; ++j) {{
+            wp::vec3 value(0.0f);
+            if ({wanted}) {{
+                if ({on_dome}) {{
+                    const wp::vec4 t = wh_bilinear(dome_texels[{f}00[j]], dome_texels[{f}01[j]], dome_texels[{f}10[j]],
+                                                   dome_texels[{f}11[j]], {f}x[j], {f}y[j]);
+                    value = wp::vec3(t[0], t[1], t[2]);
+                }} else {{
+                    value = wh_bilinear(mip_texels[{f}00[j]], mip_texels[{f}01[j]], mip_texels[{f}10[j]],
+                                        mip_texels[{f}11[j]], {f}x[j], {f}y[j]);
+                }}
+            }}
+            {f}c[0][j] = value[0]; {f}c[1][j] = value[1]; {f}c[2][j] = value[2];
+        }}"""
+
+
 # (4) of ``lit_span``: what the dome gives each pixel of the chunk, then its radiance.
 # Under a direction-free dome (``ambient.direction_free``) one irradiance ``e_free`` and
-# one radiance ``sky`` for every pixel.  Otherwise (a) across pixels, the irradiance at
-# the normal (SH), the dome-local direction the pixel reads (the mirror direction on a
-# surface, the camera ray on the background) and its lat-long uv, and the uv straight
-# behind the surface (what glass lets through; every pixel's, as the loop has no
-# branches); (b) lane by lane (the texel reads), the prefiltered radiance at that uv and
-# the lobe's level (the dome's own radiance on the background) and, for glass, the dome
-# at the uv behind it.  Then (c) across pixels ``shading.shade_surface`` given those
-# (``wh_surface_radiance`` with the split-sum ``wh_env_brdf`` times the looked-up
-# radiance), the dome's radiance where the pixel sees no surface.
+# one radiance ``sky`` for every pixel.  Otherwise (a textured dome: an untextured one is
+# direction-free) (a) across pixels, the irradiance at the normal (SH), the dome-local
+# direction the pixel reads (the mirror direction on a surface, the camera ray on the
+# background) and its lat-long uv, the uv straight behind the surface (what glass lets
+# through), then ``wh_prefiltered_at``'s choices as selects: the lobe's level of detail
+# (``wh_prefilter_lod``), the level ``fa`` reads and whether it blends with a second value
+# (the next level ``fb``, or past the chain's top the SH irradiance) and by what weights,
+# and each fetch's footprint (every pixel's, as the loop has no branches); (b) lane by
+# lane only the loads of the fetches a pixel uses and their bilinear blend; (c) across
+# pixels the looked-up radiance (the dome's colour, scale and bias on level 0's values,
+# the blend of the two values) and, for glass, the dome behind it.  Then (d) across
+# pixels ``shading.shade_surface`` given those (``wh_surface_radiance`` with the
+# split-sum ``wh_env_brdf`` times the looked-up radiance), the dome's radiance where the
+# pixel sees no surface.  The same operations as the scalar lookups
+# (``wh_environment_radiance_at``, ``wh_prefiltered_at``), so the same bits.
 _RADIANCE_CPP = f"""
     if (!uniform_dome) {{
         for (int j = 0; j < n; ++j) {{
@@ -162,20 +203,50 @@ _RADIANCE_CPP = f"""
         }}
         for (int j = 0; j < n; ++j) {{
             const wp::vec2 uv(ux[j], uy[j]);
-            wp::vec3 s(0.0f);
-            if (!hit[j]) {{
-                s = wh_environment_radiance_at(env, textures, texels, uv);
-            }} else if (amb.enabled != 0) {{
-                s = amb.levels == 0 ? wh_environment_radiance_at(env, textures, texels, uv)
-                                    : wh_prefiltered_at(env, textures, texels, amb, wp::vec3(ox[j], oy[j], oz[j]), uv,
-                                                        wh_prefilter_lod(amb, rough[j]));
-            }}
+            const float lod = wh_prefilter_lod(amb, rough[j]);
+            const bool lobe = hit[j] && amb.levels > 0;
+            const bool past_top = lobe && lod >= top;
+            const int l0 = (int)wp::floor(wp::min(lod, top));  // (lod < top where it is read)
+            const float t = past_top ? wp::min(wp::sub(lod, top), 1.0f) : wp::sub(lod, (float)l0);
+            const int la = lobe ? (past_top ? amb.levels : l0) : 0;
+            level[j] = la;
+            above_top[j] = past_top;
+            two_levels[j] = lobe && !past_top && !(t <= 0.0f);
+            keep[j] = wp::sub(1.0f, t);
+            add_weight[j] = past_top ? wp::mul(WH_INV_PI, t) : t;
+            // (the tables read unconditionally, each index in range, so the loop has no branches)
+            const int ka = wp::max(la - 1, 0);
+            const int kb = wp::clamp(l0, 0, wp::max(amb.levels - 1, 0));
+            const int a_offset = amb.mip_offset.data[ka], a_width = amb.mip_width.data[ka];
+            const int a_height = amb.mip_height.data[ka];
+            wh_latlong_footprint(la == 0 ? dome_offset : a_offset, la == 0 ? dome_width : a_width,
+                                 la == 0 ? dome_height : a_height, uv, fa00[j], fa01[j], fa10[j], fa11[j], fax[j],
+                                 fay[j]);
+            wh_latlong_footprint(amb.mip_offset.data[kb], amb.mip_width.data[kb], amb.mip_height.data[kb], uv, fb00[j],
+                                 fb01[j], fb10[j], fb11[j], fbx[j], fby[j]);
+            glass[j] = hit[j] && dome && (flags[j] & {int(FLAG_TRANSMISSIVE)}) != 0;
+            wh_latlong_footprint(dome_offset, dome_width, dome_height, wp::vec2(bx[j], by[j]), ft00[j], ft01[j], ft10[j],
+                                 ft11[j], ftx[j], fty[j]);
+        }}
+{_fetch_cpp("fa", "level[j] != 0 || textured", "level[j] == 0")}
+{_fetch_cpp("fb", "two_levels[j]", "false")}
+{_fetch_cpp("ft", "glass[j] && textured", "true")}
+        for (int j = 0; j < n; ++j) {{
+            const wp::vec3 a(fac[0][j], fac[1][j], fac[2][j]);
+            const wp::vec3 on_dome = textured ? wh_dome_scaled(env, *dome_texture, a) : env.color;
+            const wp::vec3 first = level[j] == 0 ? wh_select(dome, on_dome, wp::vec3(0.0f)) : a;
+            const wp::vec3 second = above_top[j] ? wh_sh_irradiance(amb, wh_normalize(wp::vec3(ox[j], oy[j], oz[j])), false)
+                                                 : wp::vec3(fbc[0][j], fbc[1][j], fbc[2][j]);
+            // (the sum's terms in this order: under the module's FMA contraction the compiler then
+            // fuses the same product as in the scalar ``wh_prefiltered_at``, so the bits agree)
+            const wp::vec3 s = above_top[j] || two_levels[j]
+                                   ? wp::add(wp::mul(second, add_weight[j]), wp::mul(first, keep[j]))
+                                   : first;
             sr[j] = s[0]; sg[j] = s[1]; sb[j] = s[2];
-            wp::vec3 t(0.0f);
-            if (hit[j] && dome && (flags[j] & {int(FLAG_TRANSMISSIVE)}) != 0) {{
-                t = wh_environment_radiance_at(env, textures, texels, wp::vec2(bx[j], by[j]));
-            }}
-            tr[j] = t[0]; tg[j] = t[1]; tb[j] = t[2];
+            const wp::vec3 b(ftc[0][j], ftc[1][j], ftc[2][j]);
+            const wp::vec3 behind = textured ? wh_dome_scaled(env, *dome_texture, b) : env.color;
+            const wp::vec3 tt = glass[j] ? behind : wp::vec3(0.0f);
+            tr[j] = tt[0]; tg[j] = tt[1]; tb[j] = tt[2];
         }}
     }}
     // (a literal ``uniform``: the row's one irradiance and radiance, folded in as constants)
@@ -237,7 +308,20 @@ const wp::vec3 e_free = wh_ambient_irradiance(env, amb, up, true);
 const wp::vec3 sky = wh_environment_radiance(env, textures, texels, up);
 float er[CHUNK], eg[CHUNK], eb[CHUNK], ir[CHUNK], ig[CHUNK], ib[CHUNK], sr[CHUNK], sg[CHUNK], sb[CHUNK];
 float tr[CHUNK], tg[CHUNK], tb[CHUNK], ox[CHUNK], oy[CHUNK], oz[CHUNK], ux[CHUNK], uy[CHUNK], bx[CHUNK], by[CHUNK];
-bool hit[CHUNK];"""
+bool hit[CHUNK], above_top[CHUNK], two_levels[CHUNK], glass[CHUNK];
+int level[CHUNK];
+float keep[CHUNK], add_weight[CHUNK];
+"""
+        + _FETCH_ARRAYS_CPP
+        + """
+const bool textured = dome && env.texture >= 0;
+const auto* dome_texture = textured ? &textures.data[env.texture] : nullptr;
+const int dome_offset = textured ? dome_texture->offset : 0;
+const int dome_width = textured ? dome_texture->width : 1;
+const int dome_height = textured ? dome_texture->height : 1;
+const float top = (float)amb.levels;
+const wp::vec4* dome_texels = texels.data;
+const wp::vec3* mip_texels = amb.mip_texels.data;"""
         if lit
         else ""
     )

@@ -156,16 +156,18 @@ auto wh_environment_uv = [&](const wp::vec3& d) WH_INLINE -> wp::vec2 {{
     const float u = wp::sub(0.5f, wp::div(lon, {float_literal(TWO_PI)}));
     return wp::vec2(u >= 1.0f ? wp::sub(u, 1.0f) : u, wp::add(0.5f, wp::div(lat, {float_literal(PI)})));
 }};
-// Bilinear fetch from a lat-long image stored row-major from its top row at
-// texels[offset:], wrapping in u and clamping in v (USD uv, v = 1 at the top).
-auto wh_latlong_bilinear = [&](const auto* texels, const int offset, const int width, const int height,
-                               const wp::vec2& uv) WH_INLINE {{
+// The bilinear footprint of lat-long uv in a width x height image stored row-major from its
+// top row at element offset (wrapping in u, clamping in v; USD uv, v = 1 at the top): the
+// four texels' element indices (i00, i01 in the upper row, i10, i11 in the lower) and the
+// blend's weights fx, fy (``wh_bilinear``).
+auto wh_latlong_footprint = [&](const int offset, const int width, const int height, const wp::vec2& uv, int& i00,
+                                int& i01, int& i10, int& i11, float& fx, float& fy) WH_INLINE {{
     const float x = wp::sub(wp::mul(uv[0], (float)width), 0.5f);
     const float y = wp::sub(wp::mul(wp::sub(1.0f, uv[1]), (float)height), 0.5f);
     const float x0f = wp::floor(x);
     const float y0f = wp::floor(y);
-    const float fx = wp::sub(x, x0f);
-    const float fy = wp::sub(y, y0f);
+    fx = wp::sub(x, x0f);
+    fy = wp::sub(y, y0f);
     int x0 = (int)x0f;
     x0 = x0 < 0 ? x0 + width : (x0 >= width ? x0 - width : x0);
     const int x1 = x0 + 1 >= width ? 0 : x0 + 1;
@@ -173,15 +175,37 @@ auto wh_latlong_bilinear = [&](const auto* texels, const int offset, const int w
     const int y1 = wp::min((int)y0f + 1, height - 1);
     const int r0 = offset + y0 * width;
     const int r1 = offset + wp::max(y1, 0) * width;
-    return wh_lerp(wh_lerp(texels[r0 + x0], texels[r0 + x1], fx), wh_lerp(texels[r1 + x0], texels[r1 + x1], fx), fy);
+    i00 = r0 + x0;
+    i01 = r0 + x1;
+    i10 = r1 + x0;
+    i11 = r1 + x1;
 }};
-// color * (texel * scale + bias) of the dome's texture at lat-long uv (the dome must have one).
+// The bilinear blend of a footprint's four texels (any type) by its weights.
+auto wh_bilinear = [&](const auto& t00, const auto& t01, const auto& t10, const auto& t11, const float fx,
+                       const float fy) WH_INLINE {{
+    return wh_lerp(wh_lerp(t00, t01, fx), wh_lerp(t10, t11, fx), fy);
+}};
+// Bilinear fetch from a lat-long image stored row-major from its top row at texels[offset:].
+auto wh_latlong_bilinear = [&](const auto* texels, const int offset, const int width, const int height,
+                               const wp::vec2& uv) WH_INLINE {{
+    int i00, i01, i10, i11;
+    float fx, fy;
+    wh_latlong_footprint(offset, width, height, uv, i00, i01, i10, i11, fx, fy);
+    return wh_bilinear(texels[i00], texels[i01], texels[i10], texels[i11], fx, fy);
+}};
+// The dome's radiance given its texture ``tex``'s bilinear value (its first three channels):
+// color * (texel * scale + bias).
+auto wh_dome_scaled = [&](const auto& env, const auto& tex, const wp::vec3& texel) WH_INLINE -> wp::vec3 {{
+    const wp::vec3 scale(tex.scale[0], tex.scale[1], tex.scale[2]);
+    const wp::vec3 bias(tex.bias[0], tex.bias[1], tex.bias[2]);
+    return wp::cw_mul(env.color, wp::add(wp::cw_mul(texel, scale), bias));
+}};
+// The dome's radiance off its texture at lat-long uv (the dome must have one).
 auto wh_dome_texture_radiance = [&](const auto& env, const auto& textures, const auto& texels, const wp::vec2& uv)
     WH_INLINE -> wp::vec3 {{
     const auto& tex = textures.data[env.texture];
-    const wp::vec4 t = wp::add(wp::cw_mul(wh_latlong_bilinear(texels.data, tex.offset, tex.width, tex.height, uv),
-                                          tex.scale), tex.bias);
-    return wp::cw_mul(env.color, wp::vec3(t[0], t[1], t[2]));
+    const wp::vec4 t = wh_latlong_bilinear(texels.data, tex.offset, tex.width, tex.height, uv);
+    return wh_dome_scaled(env, tex, wp::vec3(t[0], t[1], t[2]));
 }};
 // The dome's radiance at lat-long uv (black without a dome, its colour without a texture).
 auto wh_environment_radiance_at = [&](const auto& env, const auto& textures, const auto& texels, const wp::vec2& uv)

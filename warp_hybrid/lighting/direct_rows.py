@@ -147,21 +147,21 @@ _FETCH_ARRAYS_CPP = "\n".join(
 
 def _fetch_cpp(fetch: str, wanted: str, on_dome: str) -> str:
     """C++ of (4b) for one fetch: for the lanes where ``wanted`` (a C++ condition on lane
-    ``j``) its bilinear value, from the dome's texels where ``on_dome`` (a condition on
-    ``j``; vec4 texels) or else the mip chain's (vec3), the four loads and the blend of
-    ``wh_latlong_bilinear``, channel by channel."""
+    ``j``) its bilinear value (``wh_bilinear_blend`` of its footprint's four texels), from
+    the dome's texels (vec4) where ``on_dome`` (a condition on ``j``), else from the mip
+    chain's (vec3); zero for the other lanes."""
     f = fetch
     return f"""
         for (int j = 0; j < n; ++j) {{
             wp::vec3 value(0.0f);
             if ({wanted}) {{
                 if ({on_dome}) {{
-                    const wp::vec4 t = wh_bilinear(dome_texels[{f}00[j]], dome_texels[{f}01[j]], dome_texels[{f}10[j]],
-                                                   dome_texels[{f}11[j]], {f}x[j], {f}y[j]);
+                    const wp::vec4 t = wh_bilinear_blend(dome_texels[{f}00[j]], dome_texels[{f}01[j]],
+                                                         dome_texels[{f}10[j]], dome_texels[{f}11[j]], {f}x[j], {f}y[j]);
                     value = wp::vec3(t[0], t[1], t[2]);
                 }} else {{
-                    value = wh_bilinear(mip_texels[{f}00[j]], mip_texels[{f}01[j]], mip_texels[{f}10[j]],
-                                        mip_texels[{f}11[j]], {f}x[j], {f}y[j]);
+                    value = wh_bilinear_blend(mip_texels[{f}00[j]], mip_texels[{f}01[j]], mip_texels[{f}10[j]],
+                                              mip_texels[{f}11[j]], {f}x[j], {f}y[j]);
                 }}
             }}
             {f}c[0][j] = value[0]; {f}c[1][j] = value[1]; {f}c[2][j] = value[2];

@@ -159,7 +159,7 @@ auto wh_environment_uv = [&](const wp::vec3& d) WH_INLINE -> wp::vec2 {{
 // The bilinear footprint of lat-long uv in a width x height image stored row-major from its
 // top row at element offset (wrapping in u, clamping in v; USD uv, v = 1 at the top): the
 // four texels' element indices (i00, i01 in the upper row, i10, i11 in the lower) and the
-// blend's weights fx, fy (``wh_bilinear``).
+// blend's weights fx, fy (``wh_bilinear_blend``).
 auto wh_latlong_footprint = [&](const int offset, const int width, const int height, const wp::vec2& uv, int& i00,
                                 int& i01, int& i10, int& i11, float& fx, float& fy) WH_INLINE {{
     const float x = wp::sub(wp::mul(uv[0], (float)width), 0.5f);
@@ -181,7 +181,7 @@ auto wh_latlong_footprint = [&](const int offset, const int width, const int hei
     i11 = r1 + x1;
 }};
 // The bilinear blend of a footprint's four texels (any type) by its weights.
-auto wh_bilinear = [&](const auto& t00, const auto& t01, const auto& t10, const auto& t11, const float fx,
+auto wh_bilinear_blend = [&](const auto& t00, const auto& t01, const auto& t10, const auto& t11, const float fx,
                        const float fy) WH_INLINE {{
     return wh_lerp(wh_lerp(t00, t01, fx), wh_lerp(t10, t11, fx), fy);
 }};
@@ -191,7 +191,7 @@ auto wh_latlong_bilinear = [&](const auto* texels, const int offset, const int w
     int i00, i01, i10, i11;
     float fx, fy;
     wh_latlong_footprint(offset, width, height, uv, i00, i01, i10, i11, fx, fy);
-    return wh_bilinear(texels[i00], texels[i01], texels[i10], texels[i11], fx, fy);
+    return wh_bilinear_blend(texels[i00], texels[i01], texels[i10], texels[i11], fx, fy);
 }};
 // The dome's radiance given its texture ``tex``'s bilinear value (its first three channels):
 // color * (texel * scale + bias).

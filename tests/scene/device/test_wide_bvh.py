@@ -12,6 +12,7 @@ from warp_hybrid.scene.device.wide_bvh import (
     PACKET,
     WideBVH,
     WideBVHGPU,
+    grouped_leaves,
     packet_any_hits,
     packet_closest_hits,
     wide_any_hit,
@@ -343,6 +344,36 @@ def test_nodes_at_the_depth_limit_are_leaves_however_big(max_depth: int) -> None
     assert len(leaves) == 2**max_depth and np.diff(leaves, axis=1).min() > MAX_LEAF
     o, d, max_t = _rays(rng, 10000)
     _assert_same_answers(mesh, wide, o, d, max_t)
+
+
+def test_leaves_are_laid_out_in_groups_of_four_slots() -> None:
+    """Each leaf starts a group of four slots and fills whole groups, its spare slots
+    repeating their group's first face; the slots keep the leaves' order in the face list
+    (the tie rule's leaf order), whatever order the leaves are numbered in."""
+    order = np.arange(100, 121, dtype=np.int32)  # 21 faces in leaf order
+    spans = np.array([[9, 17], [0, 1], [17, 21], [1, 4], [4, 9]], np.int32)  # numbered out of place
+    faces, grouped = grouped_leaves(order, spans)
+    assert grouped.tolist() == [[16, 24], [0, 1], [24, 28], [4, 7], [8, 13]]
+    assert faces.tolist() == [
+        *[100, 100, 100, 100],  # one face, three spares
+        *[101, 102, 103, 101],
+        *[104, 105, 106, 107, 108, 108, 108, 108],
+        *[109, 110, 111, 112, 113, 114, 115, 116],
+        *[117, 118, 119, 120],
+    ]
+
+
+def test_corners_are_stored_a_lane_a_triangle() -> None:
+    """Slot k's corner c, axis a is at ``9 (k & ~3) + 4 (3 c + a) + (k & 3)`` of ``corners``:
+    a group's 36 floats hold each corner axis as four lanes, one a triangle."""
+    rng = np.random.default_rng(4)
+    points, indices = _test_mesh(rng)
+    wide = WideBVH(_mesh(points, indices), len(indices))
+    faces = wide.gpu.faces.numpy()
+    corners = wide.gpu.corners.numpy()
+    k = np.arange(len(faces))
+    lanes = corners[(9 * (k & ~3) + (k & 3))[:, None, None] + 4 * (3 * np.arange(3)[:, None] + np.arange(3))]
+    np.testing.assert_array_equal(lanes, points[indices[faces]])
 
 
 def test_an_empty_copy_misses_everything() -> None:

@@ -307,8 +307,9 @@ for (int k = 0; k < T; ++k) {
     const int* f = I + 3 * faces.data[k];
     dirty[k] = every || m[f[0]] || m[f[1]] || m[f[2]];
     if (!dirty[k]) continue;
+    float* group = tc + 9 * (k & ~3) + (k & 3);  // slot k's lane of its group of four
     for (int c = 0; c < 3; ++c)
-        for (int a = 0; a < 3; ++a) tc[9 * k + 3 * c + a] = P[3 * f[c] + a];
+        for (int a = 0; a < 3; ++a) group[4 * (3 * c + a)] = P[3 * f[c] + a];
 }
 unsigned char* changed = node_changed.data;
 for (int node = nodes - 1; node >= 0; --node) {
@@ -328,7 +329,7 @@ for (int node = nodes - 1; node >= 0; --node) {
             for (int t = first; t < end; ++t)
                 for (int v = 0; v < 3; ++v)
                     for (int a = 0; a < 3; ++a) {
-                        const float x = tc[9 * t + 3 * v + a];
+                        const float x = tc[9 * (t & ~3) + 4 * (3 * v + a) + (t & 3)];
                         lo[a] = wp::min(lo[a], x);
                         hi[a] = wp::max(hi[a], x);
                     }
@@ -380,12 +381,12 @@ def refit_kernel(
     node_changed: wp.array(dtype=wp.uint8),
 ):
     """The tree's corners and boxes from the points (one thread).  With ``every`` != 0,
-    all of them: each triangle's three corners (9 floats, in leaf order) copied from the
-    points, then every node's four child boxes, the last node first: a leaf's from its
+    all of them: each slot's three corners (``wide_bvh.WideBVHGPU.corners``: in leaf order,
+    each axis of a corner a lane of its group of four) copied from the points, then every node's four child boxes, the last node first: a leaf's from its
     triangles' corners, a node's as the union of its own four, an unused slot an inverted
     box no ray enters (the children are read from the node itself).  Otherwise only what
     the points flagged in ``moved`` (one byte a point) change: the corners of the
-    triangles that touch one (flagged in ``triangle_dirty``), the boxes of the leaves that
+    slots whose triangle touches one (flagged in ``triangle_dirty``), the boxes of the leaves that
     hold one and of the nodes above them (``node_changed``); every other box already holds
     what the whole refit would write, so the result is the same bit for bit."""
     _refit(points, indices, faces, moved, every, corners, node_data, leaves, nodes, triangle_dirty, node_changed)

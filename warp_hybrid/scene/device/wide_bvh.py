@@ -11,8 +11,9 @@ slab test (clang vector extensions, SSE on any x86-64),
 and copies each leaf's triangle corners into one array in leaf order, four triangles to a
 group, each axis of each corner a row of four lanes (a leaf starts a group; the spare
 slots of its last group repeat that group's first triangle), so a group's part of the
-triangle test loads nine 4-lane vectors (``grouped_leaves``; on the glass dragon's rays
-5-10% less time a single-ray query, README "Leaf triangles a lane each").  Leaves keep
+triangle test loads nine 4-lane vectors (``grouped_leaves``; 5-22% less time a single-ray
+query on the staircase's and the glass dragon's rays, README "The textured dome's texel
+reads taken apart, leaf triangles a lane each").  Leaves keep
 Warp's triangles and its watertight triangle test (``intersect_ray_tri_woop``), the
 ray's part of it once per ray and the triangle's part for four of a leaf's triangles at
 once, each lane Warp's arithmetic operation for operation, so the answers are Warp's

@@ -14,10 +14,11 @@ clipped polygon where it lies above none, both and a choice per pixel where it i
 mixed), and (4) the sum, or in ``lit_span`` the pixel's radiance: under a dome whose
 light is the same from every direction (``ambient.direction_free``: none, or an
 untextured one) from one irradiance and one radiance for the row; under a textured one
-the SH irradiance at each normal and the lat-long uvs each pixel reads vectorised too,
-only the texel reads (the prefiltered mip chain, the dome behind glass, the background)
-lane by lane; then ``wh_surface_radiance`` with the split-sum ``wh_env_brdf`` across
-pixels again.  The same lambdas as the scalar functions, so the same arithmetic; in
+the SH irradiance at each normal, the lat-long uvs each pixel reads, the mip levels it
+blends and each bilinear fetch's texel indices and weights vectorised too, only the
+texel loads and their blend (the prefiltered mip chain, the dome behind glass, the
+background) lane by lane; then ``wh_surface_radiance`` with the split-sum
+``wh_env_brdf`` across pixels again.  The same lambdas as the scalar functions, so the same arithmetic; in
 ``direct_span`` background pixels get a value the caller ignores.  The loop's pieces
 (the lane arrays, a lane's fill, steps (2) and (3) with their diffuse colour and sum
 as parameters) also build the tracer's primary direct light (``trace/primary_light.py``).

@@ -316,17 +316,26 @@ def _traversal(enter_children: str) -> str:
 #: (face, t, u, v, normal x, y, z, 1) of a hit; all -1 for none.
 _hit8 = wp.types.vector(length=8, dtype=wp.float32)
 
+# The row of a hit on slot k at distance t, barycentrics u, v (``_hit8``): its mesh face and
+# the unit normal of its corners (read from the slot's lane of its group), for both closest
+# queries (defined after ``tv``).
+_HIT_ROW_CPP = """
+auto wh_hit_row = [&](const int k, const float t, const float u, const float v) -> wp::vec_t<8, float> {
+    const float* c = tv + 9 * (k & ~3) + (k & 3);
+    const wp::vec3 a(c[0], c[4], c[8]);
+    const wp::vec3 n = wp::normalize(wp::cross(wp::vec3(c[12], c[16], c[20]) - a, wp::vec3(c[24], c[28], c[32]) - a));
+    wp::vec_t<8, float> r;
+    r[0] = (float)faces.data[k]; r[1] = t; r[2] = u; r[3] = v; r[4] = n[0]; r[5] = n[1]; r[6] = n[2]; r[7] = 1.0f;
+    return r;
+};
+"""
+
 _CLOSEST = (
     _traversal(_ENTER_BY_LANE)
     .replace("MISS", "wp::vec_t<8, float>(-1.0f)")
     .replace("if (ANY) return HIT;", "")
-    .replace(
-        "FOUND",
-        "[&] { const float* t = tv + 9 * (best_k & ~3) + (best_k & 3); const wp::vec3 a(t[0], t[4], t[8]);"
-        " const wp::vec3 n = wp::normalize(wp::cross(wp::vec3(t[12], t[16], t[20]) - a, wp::vec3(t[24], t[28], t[32]) - a));"
-        " wp::vec_t<8, float> r; r[0] = (float)faces.data[best_k];"
-        " r[1] = best; r[2] = best_u; r[3] = best_v; r[4] = n[0]; r[5] = n[1]; r[6] = n[2]; r[7] = 1.0f; return r; }()",
-    )
+    .replace("const float* tv = corners.data;", "const float* tv = corners.data;" + _HIT_ROW_CPP)
+    .replace("FOUND", "wh_hit_row(best_k, best, best_u, best_v)")
 )
 
 _ANY = (
@@ -506,6 +515,7 @@ _CLOSEST_PACKET = """
 return MISS;
 #else
 PACKET_RAYS
+HIT_ROW
 const int none = NO_CHILD;
 vPf best = tmax;
 vPi best_k = -1;
@@ -565,14 +575,9 @@ WATERTIGHT_LANES
 wp::mat_t<PACKET, 8, float> out;
 for (int j = 0; j < PACKET; ++j) {
     for (int e = 0; e < 8; ++e) out.data[j][e] = -1.0f;
-    const int k = best_k[j];
-    if (k < 0) continue;
-    const float* t = tv + 9 * (k & ~3) + (k & 3);
-    const wp::vec3 a(t[0], t[4], t[8]);
-    const wp::vec3 n = wp::normalize(wp::cross(wp::vec3(t[12], t[16], t[20]) - a, wp::vec3(t[24], t[28], t[32]) - a));
-    out.data[j][0] = (float)faces.data[k];
-    out.data[j][1] = best[j]; out.data[j][2] = best_u[j]; out.data[j][3] = best_v[j];
-    out.data[j][4] = n[0]; out.data[j][5] = n[1]; out.data[j][6] = n[2]; out.data[j][7] = 1.0f;
+    if (best_k[j] < 0) continue;
+    const wp::vec_t<8, float> r = wh_hit_row(best_k[j], best[j], best_u[j], best_v[j]);
+    for (int e = 0; e < 8; ++e) out.data[j][e] = r[e];
 }
 return out;
 #endif
@@ -583,6 +588,7 @@ def _packet_query(body: str, miss: str) -> str:
     """A packet query's C++: ``body`` with the shared pieces and the constants filled in."""
     return (
         body.replace("PACKET_RAYS", _PACKET_RAYS)
+        .replace("HIT_ROW", _HIT_ROW_CPP)
         .replace("MISS", miss)
         .replace("PACKET_BOX", _PACKET_BOX)
         .replace("PACKET_CORNERS", _PACKET_CORNERS)

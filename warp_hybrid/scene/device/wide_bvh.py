@@ -61,6 +61,7 @@ from .wide_bvh_build import (
     build_kernel,
     collapse_kernel,
     refit_kernel,
+    slot_lane_cpp,
 )
 
 #: Children per node.
@@ -321,7 +322,7 @@ _hit8 = wp.types.vector(length=8, dtype=wp.float32)
 # queries (defined after ``tv``).
 _HIT_ROW_CPP = """
 auto wh_hit_row = [&](const int k, const float t, const float u, const float v) -> wp::vec_t<8, float> {
-    const float* c = tv + 9 * (k & ~3) + (k & 3);
+    const float* c = tv + SLOT_K;
     const wp::vec3 a(c[0], c[4], c[8]);
     const wp::vec3 n = wp::normalize(wp::cross(wp::vec3(c[12], c[16], c[20]) - a, wp::vec3(c[24], c[28], c[32]) - a));
     wp::vec_t<8, float> r;
@@ -335,6 +336,7 @@ _CLOSEST = (
     .replace("MISS", "wp::vec_t<8, float>(-1.0f)")
     .replace("if (ANY) return HIT;", "")
     .replace("const float* tv = corners.data;", "const float* tv = corners.data;" + _HIT_ROW_CPP)
+    .replace("SLOT_K", slot_lane_cpp("k"))
     .replace("FOUND", "wh_hit_row(best_k, best, best_u, best_v)")
 )
 
@@ -439,7 +441,7 @@ if (any_flat) {
 }
 SLAB_SPAN
 """
-_PACKET_CORNERS = """const float* t = tv + 9 * (g & ~3) + (g & 3);  // triangle g's lane of its group
+_PACKET_CORNERS = """const float* t = tv + SLOT_G;  // triangle g's lane of its group
 vPf Ax, Ay, Az, Bx, By, Bz, Cx, Cy, Cz;
 if (uniform) {
     const int ux = 4 * kx[lead], uy = 4 * ky[lead], uz = 4 * kz[lead];
@@ -589,9 +591,11 @@ def _packet_query(body: str, miss: str) -> str:
     return (
         body.replace("PACKET_RAYS", _PACKET_RAYS)
         .replace("HIT_ROW", _HIT_ROW_CPP)
+        .replace("SLOT_K", slot_lane_cpp("k"))
         .replace("MISS", miss)
         .replace("PACKET_BOX", _PACKET_BOX)
         .replace("PACKET_CORNERS", _PACKET_CORNERS)
+        .replace("SLOT_G", slot_lane_cpp("g"))
         .replace("WIDEN", _WIDEN)
         .replace("SLAB_SPAN", _lanes(_SLAB_SPAN, "vPf", "vPi", "PACKET"))
         .replace("WATERTIGHT_LANES", _lanes(_WATERTIGHT_LANES, "vPf", "vPi", "PACKET"))

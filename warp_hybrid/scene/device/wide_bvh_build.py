@@ -53,6 +53,14 @@ MAX_DEPTH = 60
 
 wp.set_module_options({"enable_backward": False})
 
+
+def slot_lane_cpp(slot: str) -> str:
+    """C++ of where slot ``slot``'s lane starts in the corners (``wide_bvh.WideBVHGPU.corners``:
+    four slots to a group of 36 floats, each axis of each corner a row of four lanes), in
+    floats: its corner c's axis a is ``4 (3 c + a)`` floats on."""
+    return f"(9 * (({slot}) & ~3) + (({slot}) & 3))"
+
+
 _BUILD = """
 #if !defined(__CUDA_ARCH__)
 const int T = tri_count;
@@ -307,7 +315,7 @@ for (int k = 0; k < T; ++k) {
     const int* f = I + 3 * faces.data[k];
     dirty[k] = every || m[f[0]] || m[f[1]] || m[f[2]];
     if (!dirty[k]) continue;
-    float* group = tc + 9 * (k & ~3) + (k & 3);  // slot k's lane of its group of four
+    float* group = tc + SLOT_K;  // slot k's lane of its group of four
     for (int c = 0; c < 3; ++c)
         for (int a = 0; a < 3; ++a) group[4 * (3 * c + a)] = P[3 * f[c] + a];
 }
@@ -329,7 +337,7 @@ for (int node = nodes - 1; node >= 0; --node) {
             for (int t = first; t < end; ++t)
                 for (int v = 0; v < 3; ++v)
                     for (int a = 0; a < 3; ++a) {
-                        const float x = tc[9 * (t & ~3) + 4 * (3 * v + a) + (t & 3)];
+                        const float x = tc[SLOT_T + 4 * (3 * v + a)];
                         lo[a] = wp::min(lo[a], x);
                         hi[a] = wp::max(hi[a], x);
                     }
@@ -350,6 +358,8 @@ for (int node = nodes - 1; node >= 0; --node) {
 """.replace("NODE_FLOATS", str(NODE_FLOATS))
     .replace("CHILD_LANES", str(CHILD_LANES))
     .replace("NO_CHILD", NO_CHILD_C)
+    .replace("SLOT_K", slot_lane_cpp("k"))
+    .replace("SLOT_T", slot_lane_cpp("t"))
 )
 def _refit(
     points: wp.array(dtype=wp.vec3),

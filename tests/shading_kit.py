@@ -1,12 +1,13 @@
-"""Shading points for the tests of the lights' row loops (the deferred pass's and the tracer's
-primary direct light): one light of every kind over a random G-buffer under a rect light."""
+"""Shading points for the tests of the row loops (the deferred pass's, and the tracer's primary
+direct light and background): one light of every kind over a random G-buffer under a rect
+light, and domes of every kind."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from warp_hybrid.core.gbuffer import GBuffer
-from warp_hybrid.scene.model import Light, LightKind
+from warp_hybrid.scene.model import Environment, Light, LightKind, TextureBinding, TextureImage
 
 #: Where the rect light hangs, facing down over the points.
 RECT_CENTRE = (0.0, 2.0, 0.0)
@@ -80,3 +81,19 @@ def gbuffer_under_rect(device: str, rng: np.random.Generator, width: int, height
     gb.material_id.assign((np.arange(h * w).reshape(h, w) % 3 == 0).astype(np.int32))
     gb.triangle_id.assign(np.zeros((h, w), np.int32))
     return gb
+
+
+def dome_arguments(kind: str, rng: np.random.Generator) -> dict:
+    """``make_scene`` arguments for no dome ("none"), a constant one ("constant") or one
+    with a random 32x64 lat-long texture ("textured": scaled and biased, three mip levels,
+    every SH band)."""
+    if kind == "none":
+        return {}
+    if kind == "constant":
+        return {"environment": Environment("dome", (0.2, 0.3, 0.4))}
+    pixels = rng.uniform(0.0, 2.0, (32, 64, 4)).astype(np.float32)
+    return {
+        "environment": Environment("dome", (0.9, 1.0, 1.1), texture=0),
+        "textures": [TextureBinding(0, scale=(1.5, 0.5, 1.0, 1.0), bias=(0.0, 0.25, 0.1, 0.0))],
+        "images": [TextureImage("<sky>", pixels)],
+    }

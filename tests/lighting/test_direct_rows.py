@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import warp as wp
-from shading_kit import gbuffer_under_rect, light_set
+from shading_kit import dome_arguments, gbuffer_under_rect, light_set
 
 from warp_hybrid.core.camera import CameraGPU, make_camera_gpu, pixel_ray
 from warp_hybrid.core.gbuffer import GBufferArrays
@@ -17,7 +17,7 @@ from warp_hybrid.lighting.shading import diffuse_albedo, direct_light, shade_sur
 from warp_hybrid.scene.authoring.builders import look_at_camera, make_scene, quad
 from warp_hybrid.scene.device import DeviceScene
 from warp_hybrid.scene.device.environment import environment_radiance
-from warp_hybrid.scene.model import Environment, Material, TextureBinding, TextureImage
+from warp_hybrid.scene.model import Environment, Material
 
 wp.set_module_options({"enable_backward": False})
 
@@ -117,22 +117,6 @@ def test_row_loop_matches_the_scalar_sum(device, lights, dome):
         np.testing.assert_allclose(got, want, rtol=1e-6, atol=1e-7)
 
 
-def _dome(kind: str, rng: np.random.Generator) -> dict:
-    """``make_scene`` arguments for no dome ("none"), a constant one ("constant") or one
-    with a random 32x64 lat-long texture ("textured": scaled and biased, three mip levels,
-    every SH band)."""
-    if kind == "none":
-        return {}
-    if kind == "constant":
-        return {"environment": Environment("dome", (0.2, 0.3, 0.4))}
-    pixels = rng.uniform(0.0, 2.0, (32, 64, 4)).astype(np.float32)
-    return {
-        "environment": Environment("dome", (0.9, 1.0, 1.1), texture=0),
-        "textures": [TextureBinding(0, scale=(1.5, 0.5, 1.0, 1.0), bias=(0.0, 0.25, 0.1, 0.0))],
-        "images": [TextureImage("<sky>", pixels)],
-    }
-
-
 @pytest.mark.parametrize("dome", ["none", "constant", "textured"])
 @pytest.mark.parametrize("indirect", [False, True])
 def test_lit_row_loop_matches_the_scalar_shading(device, dome, indirect):
@@ -144,7 +128,7 @@ def test_lit_row_loop_matches_the_scalar_shading(device, dome, indirect):
     rng = np.random.default_rng(11)
     materials = [Material("paint"), Material("glass", opacity=0.3, ior=1.5)]
     scene = make_scene(
-        [quad((-3, -1, -3), (6, 0, 0), (0, 0, 6))], materials, lights=light_set("all"), **_dome(dome, rng)
+        [quad((-3, -1, -3), (6, 0, 0), (0, 0, 6))], materials, lights=light_set("all"), **dome_arguments(dome, rng)
     )
     ds = DeviceScene(scene, device, indirect=indirect)
     flag = wp.zeros(1, dtype=wp.int32, device=device)

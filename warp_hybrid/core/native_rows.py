@@ -49,6 +49,15 @@ auto wh_normalize = [&](const wp::vec3& a) WH_INLINE -> wp::vec3 {
 """
 
 
+#: C++: ``wh_at(a, i, j)``, element (i, j) of a 2-D Warp array (a step of each stride in
+#: bytes), for native code that reads arrays through a struct (the tracer's group functions).
+WH_AT_CPP = """
+auto wh_at = [&](const auto& a, const int i, const int j) WH_INLINE {
+    return *(decltype(a.data))((const char*)a.data + (size_t)i * a.strides[0] + (size_t)j * a.strides[1]);
+};
+"""
+
+
 def float_literal(value: float) -> str:
     """A C++ float32 literal of ``value``: the float32 nearest the double, as Warp rounds its
     constants (``wp::float32(double)``), written exactly in hexadecimal (a decimal with an

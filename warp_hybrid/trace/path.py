@@ -51,7 +51,6 @@ import functools
 
 import warp as wp
 
-from ..core.camera import pixel_ray_direction
 from ..core.constants import INV_PI, SMOOTH_ROUGHNESS, mirror_share
 from ..core.gbuffer import GBufferArrays
 from ..core.pixel_list import listed_pixel
@@ -63,6 +62,7 @@ from ..parallel import ITEM_GROUP
 from ..scene.device.environment import environment_radiance
 from ..scene.device.surface import SurfaceHit, is_cut_away, samples_textures, surface_at_grad
 from ..scene.device.wide_bvh import PACKET, WideHit, hit_from_row, wide_closest, wide_closest_packet
+from .background import GroupBackground, group_background
 from .cone import cone_footprint
 from .occluders import OccluderGPU
 from .offset import hit_bound, offset_ray_origin
@@ -483,10 +483,12 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
         color: wp.array2d(dtype=wp.vec3),
         item: int,
         primary_direct: wp.vec3,
+        background: wp.vec3,
     ) -> PathStart:
         """List item ``item``'s path up to its primary point: that point shaded
         (``primary_direct``: its lights' sum) and the rays it goes on with; a pixel that
-        sees no surface gets the dome (its colour and counts written, ``live`` 0)."""
+        sees no surface gets ``background``, the dome along its camera ray
+        (``background.group_background``; its colour and counts written, ``live`` 0)."""
         out = PathStart()
         out.live = 0
         out.next = no_ray()
@@ -498,10 +500,7 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
             return out
         pixel = y * tf.cam.width + x
         if tf.gb.triangle_id[y, x] < 0:
-            bg = wp.vec3(0.0, 0.0, 0.0)
-            if wp.static(environment):
-                bg = environment_radiance(scene, pixel_ray_direction(tf.cam, x, y))
-            color[y, x] = bg
+            color[y, x] = background
             tf.counts[item, 1] = 0
             tf.counts[item, 2] = 0
             tf.counts[item, 3] = 0
@@ -686,6 +685,9 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
             direct = GroupDirect()
             if wp.static(shadows):
                 direct = primary_direct(scene, tf, chunk, chunk_end, transparency)
+            dome = GroupBackground()
+            if wp.static(environment):
+                dome = group_background(scene, tf, chunk, chunk_end)
             if wp.static(wide and secondary):
                 # the chunk's paths up to their primary points, then the first ray of each
                 # as packets (neighbouring pixels' reflections and refractions share the
@@ -696,7 +698,9 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
                 packet_o = _packet_vec3s()
                 packet_d = _packet_vec3s()
                 for item in range(chunk, chunk_end):
-                    starts[item - chunk] = _start_row(begin_item(scene, amb, tf, color, item, direct[item - chunk]))
+                    starts[item - chunk] = _start_row(
+                        begin_item(scene, amb, tf, color, item, direct[item - chunk], dome[item - chunk])
+                    )
                 for p in range(wp.static(ITEM_GROUP // PACKET)):
                     packet_t = _packet_floats()  # 0: no ray in the lane
                     rays = int(0)
@@ -722,7 +726,7 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
                     )
             else:
                 for item in range(chunk, chunk_end):
-                    st = begin_item(scene, amb, tf, color, item, direct[item - chunk])
+                    st = begin_item(scene, amb, tf, color, item, direct[item - chunk], dome[item - chunk])
                     finish_item(scene, amb, tf, color, item, st, WideHit(), False)
 
     return trace_path

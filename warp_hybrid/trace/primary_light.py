@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import warp as wp
 
-from ..core.native_rows import CHUNK_CPP
+from ..core.native_rows import CHUNK_CPP, WH_AT_CPP
 from ..core.scene_gpu import FLAG_TRANSMISSIVE, SceneGPU
 from ..lighting.direct_rows import LANE_ARRAYS_CPP, RASTER_KD_CPP, lane_fill_cpp, light_loop_cpp, view_cpp
 from ..lighting.native_math import cpp
@@ -50,11 +50,8 @@ _FILL_CPP = lane_fill_cpp(
 _GROUP_CPP = (
     CHUNK_CPP
     + cpp("light_sample", "light_response", "diffuse_albedo")
+    + WH_AT_CPP
     + f"""
-// Element (i, j) of a 2-D Warp array.
-auto wh_at = [&](const auto& a, const int i, const int j) WH_INLINE {{
-    return *(decltype(a.data))((const char*)a.data + (size_t)i * a.strides[0] + (size_t)j * a.strides[1]);
-}};
 const auto& gb = tf.gb;
 const int width = tf.cam.width;
 const int pixels = width * tf.cam.height;

@@ -169,87 +169,134 @@ def _fetch_cpp(fetch: str, wanted: str, on_dome: str) -> str:
         }}"""
 
 
+def dome_terms_cpp(raster: bool) -> str:
+    """C++ of (4a-c): what a textured dome gives each lane of the chunk (an untextured one
+    is direction-free: ``lit_span`` takes its one value for the row instead).
+
+    (a) across lanes, the irradiance at the normal (SH) into ``ir, ig, ib``, the dome-local
+    direction the lane reads (the mirror direction on a surface; with ``raster`` the camera
+    ray on the background) and its lat-long uv, with ``raster`` the uv straight behind the
+    surface (what glass lets through); then ``wh_prefiltered_at``'s choices as selects: the
+    lobe's level of detail (``wh_prefilter_lod``), the level ``fa`` reads and whether it
+    blends with a second value (the next level ``fb``, or past the chain's top the SH
+    irradiance) and by what weights, and each fetch's footprint (every lane's, as the loop
+    has no branches); (b) lane by lane only the loads of the fetches a lane uses and their
+    bilinear blend; (c) across lanes the looked-up radiance into ``sr, sg, sb`` (the dome's
+    colour, scale and bias on level 0's values, the blend of the two values) and with
+    ``raster`` the dome behind glass into ``tr, tg, tb``.  ``hit[j]``: the lane reads the
+    lobe at its surface's mirror direction; a lane that is not one reads level 0 along its
+    camera ray with ``raster``, nothing without (its values are not used).  The same
+    operations as the scalar lookups (``wh_environment_radiance_at``, ``wh_prefiltered_at``),
+    so the same bits."""
+    if raster:
+        direction = """const wp::vec3 ray = wh_pixel_ray(wp::add((float)(xs + j), cam.sample[0]), wp::add((float)y, cam.sample[1]));
+        const wp::vec3 d = wp::mul(env.world_to_light, wh_select(hit[j], mirror, ray));"""
+        behind_uv = """
+        const wp::vec2 behind = wh_environment_uv(wp::mul(env.world_to_light, wp::neg(v)));
+        bx[j] = behind[0]; by[j] = behind[1];"""
+        behind_footprint = f"""
+        glass[j] = hit[j] && dome && (flags[j] & {int(FLAG_TRANSMISSIVE)}) != 0;
+        wh_latlong_footprint(dome_offset, dome_width, dome_height, wp::vec2(bx[j], by[j]), ft00[j], ft01[j], ft10[j],
+                             ft11[j], ftx[j], fty[j]);"""
+        behind_fetch = _fetch_cpp("ft", "glass[j] && textured", "true")
+        behind_value = """
+        const wp::vec3 b(ftc[0][j], ftc[1][j], ftc[2][j]);
+        const wp::vec3 behind = textured ? wh_dome_scaled(env, *dome_texture, b) : env.color;
+        const wp::vec3 tt = glass[j] ? behind : wp::vec3(0.0f);
+        tr[j] = tt[0]; tg[j] = tt[1]; tb[j] = tt[2];"""
+        first_wanted = "level[j] != 0 || textured"
+    else:
+        direction = "const wp::vec3 d = wp::mul(env.world_to_light, mirror);"
+        behind_uv = behind_footprint = behind_fetch = behind_value = ""
+        first_wanted = "hit[j] && (level[j] != 0 || textured)"
+    return f"""
+    for (int j = 0; j < n; ++j) {{
+        const wp::vec3 nn(nx[j], ny[j], nz[j]);
+        const wp::vec3 v(vx[j], vy[j], vz[j]);
+        const wp::vec3 e = wh_ambient_irradiance(env, amb, nn, false);
+        ir[j] = e[0]; ig[j] = e[1]; ib[j] = e[2];
+        const wp::vec3 mirror = wp::sub(wp::mul(nn, wp::mul(2.0f, wp::dot(nn, v))), v);
+        {direction}
+        ox[j] = d[0]; oy[j] = d[1]; oz[j] = d[2];
+        const wp::vec2 uv = wh_environment_uv(d);
+        ux[j] = uv[0]; uy[j] = uv[1];{behind_uv}
+    }}
+    for (int j = 0; j < n; ++j) {{
+        const wp::vec2 uv(ux[j], uy[j]);
+        const float lod = wh_prefilter_lod(amb, rough[j]);
+        const bool lobe = hit[j] && amb.levels > 0;
+        const bool past_top = lobe && lod >= top;
+        const int l0 = (int)wp::floor(wp::min(lod, top));  // (lod < top where it is read)
+        const float t = past_top ? wp::min(wp::sub(lod, top), 1.0f) : wp::sub(lod, (float)l0);
+        const int la = lobe ? (past_top ? amb.levels : l0) : 0;
+        level[j] = la;
+        above_top[j] = past_top;
+        two_levels[j] = lobe && !past_top && !(t <= 0.0f);
+        keep[j] = wp::sub(1.0f, t);
+        add_weight[j] = past_top ? wp::mul(WH_INV_PI, t) : t;
+        // (the tables read unconditionally, each index in range, so the loop has no branches)
+        const int ka = wp::max(la - 1, 0);
+        const int kb = wp::clamp(l0, 0, wp::max(amb.levels - 1, 0));
+        const int a_offset = amb.mip_offset.data[ka], a_width = amb.mip_width.data[ka];
+        const int a_height = amb.mip_height.data[ka];
+        wh_latlong_footprint(la == 0 ? dome_offset : a_offset, la == 0 ? dome_width : a_width,
+                             la == 0 ? dome_height : a_height, uv, fa00[j], fa01[j], fa10[j], fa11[j], fax[j],
+                             fay[j]);
+        wh_latlong_footprint(amb.mip_offset.data[kb], amb.mip_width.data[kb], amb.mip_height.data[kb], uv, fb00[j],
+                             fb01[j], fb10[j], fb11[j], fbx[j], fby[j]);{behind_footprint}
+    }}
+{_fetch_cpp("fa", first_wanted, "level[j] == 0")}
+{_fetch_cpp("fb", "two_levels[j]", "false")}
+{behind_fetch}
+    for (int j = 0; j < n; ++j) {{
+        const wp::vec3 a(fac[0][j], fac[1][j], fac[2][j]);
+        const wp::vec3 on_dome = textured ? wh_dome_scaled(env, *dome_texture, a) : env.color;
+        const wp::vec3 first = level[j] == 0 ? wh_select(dome, on_dome, wp::vec3(0.0f)) : a;
+        const wp::vec3 second = above_top[j] ? wh_sh_irradiance(amb, wh_normalize(wp::vec3(ox[j], oy[j], oz[j])), false)
+                                             : wp::vec3(fbc[0][j], fbc[1][j], fbc[2][j]);
+        // (the sum's terms in this order: under the deferred module's FMA contraction the
+        // compiler then fuses the same product as in the scalar ``wh_prefiltered_at``, so the
+        // bits agree)
+        const wp::vec3 s = above_top[j] || two_levels[j]
+                               ? wp::add(wp::mul(second, add_weight[j]), wp::mul(first, keep[j]))
+                               : first;
+        sr[j] = s[0]; sg[j] = s[1]; sb[j] = s[2];{behind_value}
+    }}
+"""
+
+
+#: The lane arrays of ``dome_terms_cpp`` and the dome's record (given ``scene``, ``amb`` and
+#: ``dome``, whether the scene has one).
+DOME_LANES_CPP = (
+    """
+const auto& env = scene.environment;
+float ir[CHUNK], ig[CHUNK], ib[CHUNK], sr[CHUNK], sg[CHUNK], sb[CHUNK];
+float tr[CHUNK], tg[CHUNK], tb[CHUNK], ox[CHUNK], oy[CHUNK], oz[CHUNK], ux[CHUNK], uy[CHUNK], bx[CHUNK], by[CHUNK];
+bool hit[CHUNK], above_top[CHUNK], two_levels[CHUNK], glass[CHUNK];
+int level[CHUNK];
+float keep[CHUNK], add_weight[CHUNK];
+"""
+    + _FETCH_ARRAYS_CPP
+    + """
+const bool textured = dome && env.texture >= 0;
+const auto* dome_texture = textured ? &scene.textures.data[env.texture] : nullptr;
+const int dome_offset = textured ? dome_texture->offset : 0;
+const int dome_width = textured ? dome_texture->width : 1;
+const int dome_height = textured ? dome_texture->height : 1;
+const float top = (float)amb.levels;
+const wp::vec4* dome_texels = scene.texels.data;
+const wp::vec3* mip_texels = amb.mip_texels.data;
+"""
+)
+
 # (4) of ``lit_span``: what the dome gives each pixel of the chunk, then its radiance.
 # Under a direction-free dome (``ambient.direction_free``) one irradiance ``e_free`` and
-# one radiance ``sky`` for every pixel.  Otherwise (a textured dome: an untextured one is
-# direction-free) (a) across pixels, the irradiance at the normal (SH), the dome-local
-# direction the pixel reads (the mirror direction on a surface, the camera ray on the
-# background) and its lat-long uv, the uv straight behind the surface (what glass lets
-# through), then ``wh_prefiltered_at``'s choices as selects: the lobe's level of detail
-# (``wh_prefilter_lod``), the level ``fa`` reads and whether it blends with a second value
-# (the next level ``fb``, or past the chain's top the SH irradiance) and by what weights,
-# and each fetch's footprint (every pixel's, as the loop has no branches); (b) lane by
-# lane only the loads of the fetches a pixel uses and their bilinear blend; (c) across
-# pixels the looked-up radiance (the dome's colour, scale and bias on level 0's values,
-# the blend of the two values) and, for glass, the dome behind it.  Then (d) across
-# pixels ``shading.shade_surface`` given those (``wh_surface_radiance`` with the
-# split-sum ``wh_env_brdf`` times the looked-up radiance), the dome's radiance where the
-# pixel sees no surface.  The same operations as the scalar lookups
-# (``wh_environment_radiance_at``, ``wh_prefiltered_at``), so the same bits.
+# one radiance ``sky`` for every pixel; otherwise ``dome_terms_cpp``'s.  Then (d) across
+# pixels ``shading.shade_surface`` given those (``wh_surface_radiance`` with the split-sum
+# ``wh_env_brdf`` times the looked-up radiance), the dome's radiance where the pixel sees
+# no surface.
 _RADIANCE_CPP = f"""
-    if (!uniform_dome) {{
-        for (int j = 0; j < n; ++j) {{
-            const wp::vec3 nn(nx[j], ny[j], nz[j]);
-            const wp::vec3 v(vx[j], vy[j], vz[j]);
-            const wp::vec3 e = wh_ambient_irradiance(env, amb, nn, false);
-            ir[j] = e[0]; ig[j] = e[1]; ib[j] = e[2];
-            const wp::vec3 mirror = wp::sub(wp::mul(nn, wp::mul(2.0f, wp::dot(nn, v))), v);
-            const wp::vec3 ray = wh_pixel_ray(wp::add((float)(xs + j), cam.sample[0]), wp::add((float)y, cam.sample[1]));
-            const wp::vec3 d = wp::mul(env.world_to_light, wh_select(hit[j], mirror, ray));
-            ox[j] = d[0]; oy[j] = d[1]; oz[j] = d[2];
-            const wp::vec2 uv = wh_environment_uv(d);
-            ux[j] = uv[0]; uy[j] = uv[1];
-            const wp::vec2 behind = wh_environment_uv(wp::mul(env.world_to_light, wp::neg(v)));
-            bx[j] = behind[0]; by[j] = behind[1];
-        }}
-        for (int j = 0; j < n; ++j) {{
-            const wp::vec2 uv(ux[j], uy[j]);
-            const float lod = wh_prefilter_lod(amb, rough[j]);
-            const bool lobe = hit[j] && amb.levels > 0;
-            const bool past_top = lobe && lod >= top;
-            const int l0 = (int)wp::floor(wp::min(lod, top));  // (lod < top where it is read)
-            const float t = past_top ? wp::min(wp::sub(lod, top), 1.0f) : wp::sub(lod, (float)l0);
-            const int la = lobe ? (past_top ? amb.levels : l0) : 0;
-            level[j] = la;
-            above_top[j] = past_top;
-            two_levels[j] = lobe && !past_top && !(t <= 0.0f);
-            keep[j] = wp::sub(1.0f, t);
-            add_weight[j] = past_top ? wp::mul(WH_INV_PI, t) : t;
-            // (the tables read unconditionally, each index in range, so the loop has no branches)
-            const int ka = wp::max(la - 1, 0);
-            const int kb = wp::clamp(l0, 0, wp::max(amb.levels - 1, 0));
-            const int a_offset = amb.mip_offset.data[ka], a_width = amb.mip_width.data[ka];
-            const int a_height = amb.mip_height.data[ka];
-            wh_latlong_footprint(la == 0 ? dome_offset : a_offset, la == 0 ? dome_width : a_width,
-                                 la == 0 ? dome_height : a_height, uv, fa00[j], fa01[j], fa10[j], fa11[j], fax[j],
-                                 fay[j]);
-            wh_latlong_footprint(amb.mip_offset.data[kb], amb.mip_width.data[kb], amb.mip_height.data[kb], uv, fb00[j],
-                                 fb01[j], fb10[j], fb11[j], fbx[j], fby[j]);
-            glass[j] = hit[j] && dome && (flags[j] & {int(FLAG_TRANSMISSIVE)}) != 0;
-            wh_latlong_footprint(dome_offset, dome_width, dome_height, wp::vec2(bx[j], by[j]), ft00[j], ft01[j], ft10[j],
-                                 ft11[j], ftx[j], fty[j]);
-        }}
-{_fetch_cpp("fa", "level[j] != 0 || textured", "level[j] == 0")}
-{_fetch_cpp("fb", "two_levels[j]", "false")}
-{_fetch_cpp("ft", "glass[j] && textured", "true")}
-        for (int j = 0; j < n; ++j) {{
-            const wp::vec3 a(fac[0][j], fac[1][j], fac[2][j]);
-            const wp::vec3 on_dome = textured ? wh_dome_scaled(env, *dome_texture, a) : env.color;
-            const wp::vec3 first = level[j] == 0 ? wh_select(dome, on_dome, wp::vec3(0.0f)) : a;
-            const wp::vec3 second = above_top[j] ? wh_sh_irradiance(amb, wh_normalize(wp::vec3(ox[j], oy[j], oz[j])), false)
-                                                 : wp::vec3(fbc[0][j], fbc[1][j], fbc[2][j]);
-            // (the sum's terms in this order: under the module's FMA contraction the compiler then
-            // fuses the same product as in the scalar ``wh_prefiltered_at``, so the bits agree)
-            const wp::vec3 s = above_top[j] || two_levels[j]
-                                   ? wp::add(wp::mul(second, add_weight[j]), wp::mul(first, keep[j]))
-                                   : first;
-            sr[j] = s[0]; sg[j] = s[1]; sb[j] = s[2];
-            const wp::vec3 b(ftc[0][j], ftc[1][j], ftc[2][j]);
-            const wp::vec3 behind = textured ? wh_dome_scaled(env, *dome_texture, b) : env.color;
-            const wp::vec3 tt = glass[j] ? behind : wp::vec3(0.0f);
-            tr[j] = tt[0]; tg[j] = tt[1]; tb[j] = tt[2];
-        }}
-    }}
+    if (!uniform_dome) {{{dome_terms_cpp(raster=True)}    }}
     // (a literal ``uniform``: the row's one irradiance and radiance, folded in as constants)
     auto radiance = [&](const bool uniform) WH_INLINE {{
         for (int j = 0; j < n; ++j) {{
@@ -300,29 +347,14 @@ def _span_cpp(lit: bool) -> str:
         f"""
 const wp::vec3* emission = {row_cpp("gb.emission", "y", "wp::vec3")};
 const int* triangle = {row_cpp("gb.triangle_id", "y", "int")};
-const auto& env = scene.environment;
 const auto& textures = scene.textures;
 const auto& texels = scene.texels;
-const bool uniform_dome = wh_direction_free(env, amb);
+const bool uniform_dome = wh_direction_free(scene.environment, amb);
 const wp::vec3 up(0.0f, 0.0f, 1.0f);  // (any direction)
-const wp::vec3 e_free = wh_ambient_irradiance(env, amb, up, true);
-const wp::vec3 sky = wh_environment_radiance(env, textures, texels, up);
-float er[CHUNK], eg[CHUNK], eb[CHUNK], ir[CHUNK], ig[CHUNK], ib[CHUNK], sr[CHUNK], sg[CHUNK], sb[CHUNK];
-float tr[CHUNK], tg[CHUNK], tb[CHUNK], ox[CHUNK], oy[CHUNK], oz[CHUNK], ux[CHUNK], uy[CHUNK], bx[CHUNK], by[CHUNK];
-bool hit[CHUNK], above_top[CHUNK], two_levels[CHUNK], glass[CHUNK];
-int level[CHUNK];
-float keep[CHUNK], add_weight[CHUNK];
-"""
-        + _FETCH_ARRAYS_CPP
-        + """
-const bool textured = dome && env.texture >= 0;
-const auto* dome_texture = textured ? &textures.data[env.texture] : nullptr;
-const int dome_offset = textured ? dome_texture->offset : 0;
-const int dome_width = textured ? dome_texture->width : 1;
-const int dome_height = textured ? dome_texture->height : 1;
-const float top = (float)amb.levels;
-const wp::vec4* dome_texels = texels.data;
-const wp::vec3* mip_texels = amb.mip_texels.data;"""
+const wp::vec3 e_free = wh_ambient_irradiance(scene.environment, amb, up, true);
+const wp::vec3 sky = wh_environment_radiance(scene.environment, textures, texels, up);
+float er[CHUNK], eg[CHUNK], eb[CHUNK];"""
+        + DOME_LANES_CPP
         if lit
         else ""
     )

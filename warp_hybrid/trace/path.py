@@ -67,6 +67,7 @@ from .cone import cone_footprint
 from .occluders import OccluderGPU
 from .offset import hit_bound, offset_ray_origin
 from .optics import make_transmission_func, mirror_direction, transmission_tint
+from .primary_dome import HAS_GLOSSY, DomeRow, GroupDome, dome_diffuse, dome_glossy, primary_dome
 from .primary_light import GroupDirect, primary_direct
 from .rays import MAX_LAYERS, MIN_THROUGHPUT, RayHit, TraceFrame, max3, step_past
 from .shadows import make_light_func
@@ -338,11 +339,14 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
         cone_length: float,
         can_push: bool,
         primary_direct: wp.vec3,
+        primary_dome: DomeRow,
     ) -> HitShading:
         """Shade hit ``h`` seen along ``d`` with path ``weight`` at ``depth``,
         ``cone_length`` from the camera along the path (what its rays carry on); segment
         0 (the primary point) takes ``primary_direct``, its lights' sum over the shadow
-        kernel's transmittances (``primary_light.primary_direct``), a secondary hit
+        kernel's transmittances (``primary_light.primary_direct``), and its dome terms from
+        ``primary_dome`` (``primary_dome.primary_dome``'s row; the glossy one where the row
+        has it), a secondary hit
         traces its shadow rays from its triangle's ``offset.hit_bound`` ``bound``.  The
         continuation rays start at ``h.position`` itself: the caller moves them off the
         surface (``leaving_origin``).  Two branches split only when ``can_push`` (room on
@@ -412,7 +416,11 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
             return out
         c = h.emission + direct
         if wp.static(ambient):
-            c += ambient_diffuse(scene, amb, n, v, kd, h.specular)
+            if segment == 0:
+                c += dome_diffuse(primary_dome)
+            else:
+                c += ambient_diffuse(scene, amb, n, v, kd, h.specular)
+        glossy = float(0.0)  # the weight of the dome's glossy term (``ambient_specular``)
         # children: a = reflection, b = transmission
         a_w = zero
         a_d = zero
@@ -429,11 +437,10 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
                 elif smooth:
                     a_w = wp.vec3(tm.fresnel, tm.fresnel, tm.fresnel) * share
                     a_d = mirror_direction(d, n, ng)
-                    if wp.static(environment):
-                        if share < 1.0:
-                            c += ambient_specular(scene, amb, n, v, h.specular, h.roughness) * (1.0 - share)
-                elif wp.static(environment):
-                    c += ambient_specular(scene, amb, n, v, h.specular, h.roughness)
+                    if share < 1.0:
+                        glossy = 1.0 - share
+                else:
+                    glossy = 1.0
                 if tm.valid != 0:
                     b_w = transmission_tint(h) * (1.0 - tm.fresnel)
                     b_d = tm.direction
@@ -442,13 +449,20 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
                     if smooth:
                         a_w = env_brdf(amb, h.specular, h.roughness, wp.dot(n, v)) * share
                         a_d = mirror_direction(d, n, ng)
-                if wp.static(environment):
-                    if max3(a_w) <= 0.0:
-                        c += ambient_specular(scene, amb, n, v, h.specular, h.roughness)
-                    elif share < 1.0:
-                        c += ambient_specular(scene, amb, n, v, h.specular, h.roughness) * (1.0 - share)
-        elif wp.static(environment):
-            c += ambient_specular(scene, amb, n, v, h.specular, h.roughness)
+                if max3(a_w) <= 0.0:
+                    glossy = 1.0
+                elif share < 1.0:
+                    glossy = 1.0 - share
+        else:
+            glossy = 1.0
+        if wp.static(environment):
+            if glossy > 0.0:  # (times 1 where the whole term is added: the same bits)
+                g = wp.vec3(0.0, 0.0, 0.0)
+                if segment == 0 and primary_dome[HAS_GLOSSY] != 0.0:
+                    g = dome_glossy(primary_dome)
+                else:
+                    g = ambient_specular(scene, amb, n, v, h.specular, h.roughness)
+                c += g * glossy
         if wp.static(blending):
             if coverage < 1.0:  # the covered share as an opaque surface, the rest straight on
                 c = c * coverage
@@ -483,10 +497,12 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
         color: wp.array2d(dtype=wp.vec3),
         item: int,
         primary_direct: wp.vec3,
+        primary_dome: DomeRow,
         background: wp.vec3,
     ) -> PathStart:
         """List item ``item``'s path up to its primary point: that point shaded
-        (``primary_direct``: its lights' sum) and the rays it goes on with; a pixel that
+        (``primary_direct``: its lights' sum; ``primary_dome``: its dome terms) and the
+        rays it goes on with; a pixel that
         sees no surface gets ``background``, the dome along its camera ray
         (``background.group_background``; its colour and counts written, ``live`` 0)."""
         out = PathStart()
@@ -529,6 +545,7 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
             cone_length,
             True,
             primary_direct,
+            primary_dome,
         )
         if s.next.kind != KIND_NONE or s.pushed.kind != KIND_NONE:
             bound = hit_bound(scene, face)  # only now: the corners are a random fetch
@@ -613,6 +630,7 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
                     cone_length,
                     can_push,
                     wp.vec3(0.0, 0.0, 0.0),
+                    DomeRow(),
                 )
                 segment += 1
                 radiance += s.radiance
@@ -685,6 +703,9 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
             direct = GroupDirect()
             if wp.static(shadows):
                 direct = primary_direct(scene, tf, chunk, chunk_end, transparency)
+            terms = GroupDome()
+            if wp.static(ambient):
+                terms = primary_dome(scene, amb, tf, chunk, chunk_end, transparency, environment)
             dome = GroupBackground()
             if wp.static(environment):
                 dome = group_background(scene, tf, chunk, chunk_end)
@@ -699,7 +720,9 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
                 packet_d = _packet_vec3s()
                 for item in range(chunk, chunk_end):
                     starts[item - chunk] = _start_row(
-                        begin_item(scene, amb, tf, color, item, direct[item - chunk], dome[item - chunk])
+                        begin_item(
+                            scene, amb, tf, color, item, direct[item - chunk], terms[item - chunk], dome[item - chunk]
+                        )
                     )
                 for p in range(wp.static(ITEM_GROUP // PACKET)):
                     packet_t = _packet_floats()  # 0: no ray in the lane
@@ -726,7 +749,9 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
                     )
             else:
                 for item in range(chunk, chunk_end):
-                    st = begin_item(scene, amb, tf, color, item, direct[item - chunk], dome[item - chunk])
+                    st = begin_item(
+                        scene, amb, tf, color, item, direct[item - chunk], terms[item - chunk], dome[item - chunk]
+                    )
                     finish_item(scene, amb, tf, color, item, st, WideHit(), False)
 
     return trace_path

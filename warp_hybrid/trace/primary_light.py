@@ -28,8 +28,8 @@ from .rays import TraceFrame
 #: One launch item's primary direct light: row ``k`` for its ``k``-th item.
 GroupDirect = wp.types.matrix(shape=(ITEM_GROUP, 3), dtype=wp.float32)
 
-#: The diffuse colour ``shade_hit`` gives a primary hit (``traced``: ``max_depth`` > 0).
-_TRACED_KD_CPP = f"""traced ? wh_select(transparency && (flags[j] & {int(FLAG_TRANSMISSIVE)}) != 0,
+#: The diffuse colour ``shade_hit`` gives a primary hit (also ``primary_dome``) (``traced``: ``max_depth`` > 0).
+TRACED_KD_CPP = f"""traced ? wh_select(transparency && (flags[j] & {int(FLAG_TRANSMISSIVE)}) != 0,
                                    wp::mul(wp::vec3(ar[j], ag[j], ab[j]), opac[j]), wp::vec3(ar[j], ag[j], ab[j]))
                        : {RASTER_KD_CPP}"""
 
@@ -73,7 +73,7 @@ for (int xs = first; xs < end; xs += CHUNK) {{
         const int x = pixel - y * width;
 {_FILL_CPP}
     }}
-{view_cpp(_TRACED_KD_CPP)}{light_loop_cpp(_SHADOWED_SUM_CPP)}
+{view_cpp(TRACED_KD_CPP)}{light_loop_cpp(_SHADOWED_SUM_CPP)}
     for (int j = 0; j < n; ++j) {{
         out.data[xs - first + j][0] = dr[j]; out.data[xs - first + j][1] = dg[j]; out.data[xs - first + j][2] = db[j];
     }}

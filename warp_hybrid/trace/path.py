@@ -230,7 +230,7 @@ def _put_ray(row: _start_floats, at: int, r: Ray) -> _start_floats:
     return out
 
 
-@wp.func
+@wp.func(inline=True)
 def _get_ray(row: _start_floats, at: int) -> Ray:
     """The ray written from column ``at`` of ``row``."""
     return make_ray(
@@ -255,7 +255,10 @@ def _start_row(st: PathStart) -> _start_floats:
     return _put_ray(row, _PUSHED, st.pushed)
 
 
-@wp.func
+# (``_get_ray`` and ``_row_start`` inline: out of line, each read of a row's copy waited
+# on the copy's stores, a failed store-to-load forward that the line profile put at 12%
+# of Suzanne's path kernel; inline, the reads come from the group's matrix itself)
+@wp.func(inline=True)
 def _row_start(row: _start_floats) -> PathStart:
     """The ``PathStart`` of a ``_start_row`` row."""
     st = PathStart()

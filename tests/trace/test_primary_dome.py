@@ -21,7 +21,7 @@ from warp_hybrid.scene.authoring.builders import look_at_camera, make_scene, qua
 from warp_hybrid.scene.device import DeviceScene
 from warp_hybrid.scene.model import Material
 from warp_hybrid.trace.occluders import OccluderGPU
-from warp_hybrid.trace.primary_dome import primary_dome
+from warp_hybrid.trace.primary_dome import DIFFUSE, GLOSSY, HAS_GLOSSY, ROW_FLOATS, primary_dome
 from warp_hybrid.trace.rays import TraceFrame, TraceParams
 
 wp.set_module_options({"enable_backward": False})
@@ -43,7 +43,7 @@ def group_kernel(
     last = wp.min(first + ITEM_GROUP, stop)
     rows = primary_dome(scene, amb, tf, first, last, transparency, glossy)
     for item in range(first, last):
-        for k in range(7):
+        for k in range(ROW_FLOATS):
             out[item, k] = rows[item - first, k]
 
 
@@ -70,8 +70,8 @@ def point_kernel(
     diffuse = ambient_diffuse(scene, amb, n, v, kd, f0)
     glossy = ambient_specular(scene, amb, n, v, f0, opt.roughness)
     for k in range(3):
-        out[item, k] = diffuse[k]
-        out[item, 3 + k] = glossy[k]
+        out[item, DIFFUSE + k] = diffuse[k]
+        out[item, GLOSSY + k] = glossy[k]
 
 
 @pytest.mark.parametrize("dome", ["none", "constant", "textured"])
@@ -104,8 +104,8 @@ def test_group_dome_terms_match_the_scalar_lookups(device, dome, transparency):
     tf.occ = OccluderGPU()
     tf.gb = gb.kernel_arrays()
     tf.pixels = wp.array(listed, dtype=wp.int32, device=device)
-    got = wp.zeros((count, 7), dtype=wp.float32, device=device)
-    want = wp.zeros((count, 7), dtype=wp.float32, device=device)
+    got = wp.zeros((count, ROW_FLOATS), dtype=wp.float32, device=device)
+    want = wp.zeros((count, ROW_FLOATS), dtype=wp.float32, device=device)
     groups = -(-count // ITEM_GROUP)
     inputs = [ds.gpu, ds.ambient, tf]
     wp.launch(group_kernel, dim=groups, inputs=[*inputs, count, transparency, True, got], device=device)
@@ -115,24 +115,25 @@ def test_group_dome_terms_match_the_scalar_lookups(device, dome, transparency):
     hits[inside] = triangles.ravel()[listed[inside]] >= 0
     got, want = got.numpy()[hits], want.numpy()[hits]
     rough = roughness.ravel()[listed[hits]]
-    np.testing.assert_array_equal(got[:, 6], (rough > GLOSSY_ROUGHNESS).astype(np.float32))
-    assert np.all(np.isfinite(want)) and want[:, :3].max() > 0.01
-    glossy = got[:, 6] == 1.0
+    np.testing.assert_array_equal(got[:, HAS_GLOSSY], (rough > GLOSSY_ROUGHNESS).astype(np.float32))
+    diffuse, specular = slice(DIFFUSE, DIFFUSE + 3), slice(GLOSSY, GLOSSY + 3)
+    assert np.all(np.isfinite(want)) and want[:, diffuse].max() > 0.01
+    glossy = got[:, HAS_GLOSSY] == 1.0
     if dome == "none":
-        assert not want[:, 3:6].any()
+        assert not want[:, specular].any()
     else:
-        assert want[glossy, 3:6].max() > 0.01
+        assert want[glossy, specular].max() > 0.01
     if dome == "textured":
         assert ds.ambient.levels == 3 and ds.ambient.sh_bands == 3
-        assert np.ptp(want[glossy, 3:6], axis=0).min() > 0.01  # the glossy term reads the texture
+        assert np.ptp(want[glossy, specular], axis=0).min() > 0.01  # the glossy term reads the texture
     if device == "cpu":
         # the same lambdas, vectorised or not: the same bits
-        np.testing.assert_array_equal(got[:, :3], want[:, :3])
-        np.testing.assert_array_equal(got[glossy, 3:6], want[glossy, 3:6])
+        np.testing.assert_array_equal(got[:, diffuse], want[:, diffuse])
+        np.testing.assert_array_equal(got[glossy, specular], want[glossy, specular])
     else:
-        np.testing.assert_allclose(got[:, :3], want[:, :3], rtol=1e-6, atol=1e-7)
-        np.testing.assert_allclose(got[glossy, 3:6], want[glossy, 3:6], rtol=1e-6, atol=1e-7)
+        np.testing.assert_allclose(got[:, diffuse], want[:, diffuse], rtol=1e-6, atol=1e-7)
+        np.testing.assert_allclose(got[glossy, specular], want[glossy, specular], rtol=1e-6, atol=1e-7)
     # without the glossy term (a variant with no dome lookups) no lane carries it
-    plain = wp.zeros((count, 7), dtype=wp.float32, device=device)
+    plain = wp.zeros((count, ROW_FLOATS), dtype=wp.float32, device=device)
     wp.launch(group_kernel, dim=groups, inputs=[*inputs, count, transparency, False, plain], device=device)
-    assert not plain.numpy()[:, 6].any()
+    assert not plain.numpy()[:, HAS_GLOSSY].any()

@@ -21,7 +21,7 @@ background) lane by lane; then ``wh_surface_radiance`` with the split-sum
 ``wh_env_brdf`` across pixels again.  The same lambdas as the scalar functions, so the same arithmetic; in
 ``direct_span`` background pixels get a value the caller ignores.  The loop's pieces
 (the lane arrays, a lane's fill, steps (2) and (3) with their diffuse colour and sum
-as parameters) also build the tracer's primary direct light (``trace/primary_light.py``).
+as parameters) also build the tracer's primary points' terms (``trace/primary_group.py``).
 """
 
 from __future__ import annotations
@@ -266,10 +266,16 @@ def dome_terms_cpp(raster: bool) -> str:
 
 
 #: The lane arrays of ``dome_terms_cpp`` and the dome's record (given ``scene``, ``amb`` and
-#: ``dome``, whether the scene has one).
+#: ``dome``, whether the scene has one); under a direction-free dome (``uniform_dome``)
+#: its one irradiance ``e_free`` and one radiance ``sky``, the values ``dome_terms_cpp``
+#: would give every lane.
 DOME_LANES_CPP = (
     """
 const auto& env = scene.environment;
+const bool uniform_dome = wh_direction_free(env, amb);
+const wp::vec3 up(0.0f, 0.0f, 1.0f);  // (any direction)
+const wp::vec3 e_free = uniform_dome ? wh_ambient_irradiance(env, amb, up, true) : wp::vec3(0.0f);
+const wp::vec3 sky = uniform_dome ? wh_environment_radiance(env, scene.textures, scene.texels, up) : wp::vec3(0.0f);
 float ir[CHUNK], ig[CHUNK], ib[CHUNK], sr[CHUNK], sg[CHUNK], sb[CHUNK];
 float tr[CHUNK], tg[CHUNK], tb[CHUNK], ox[CHUNK], oy[CHUNK], oz[CHUNK], ux[CHUNK], uy[CHUNK], bx[CHUNK], by[CHUNK];
 bool hit[CHUNK], above_top[CHUNK], two_levels[CHUNK], glass[CHUNK];
@@ -347,12 +353,6 @@ def _span_cpp(lit: bool) -> str:
         f"""
 const wp::vec3* emission = {row_cpp("gb.emission", "y", "wp::vec3")};
 const int* triangle = {row_cpp("gb.triangle_id", "y", "int")};
-const auto& textures = scene.textures;
-const auto& texels = scene.texels;
-const bool uniform_dome = wh_direction_free(scene.environment, amb);
-const wp::vec3 up(0.0f, 0.0f, 1.0f);  // (any direction)
-const wp::vec3 e_free = wh_ambient_irradiance(scene.environment, amb, up, true);
-const wp::vec3 sky = wh_environment_radiance(scene.environment, textures, texels, up);
 float er[CHUNK], eg[CHUNK], eb[CHUNK];"""
         + DOME_LANES_CPP
         if lit

@@ -12,7 +12,7 @@ same lambdas, the same bits as the scalar lookups) run over the group's pixels, 
 through the pixel list: the arithmetic across lanes, only the texel loads lane by lane,
 and those only where the glossy term is likely to be added (``GLOSSY_LANE``: the mirror
 ray carries less than the whole reflection); ``shade_hit`` looks up the others itself
-where it needs them (column 6 says which lanes have it).
+where it needs them (column ``HAS_GLOSSY`` says which lanes have it).
 """
 
 from __future__ import annotations
@@ -30,12 +30,16 @@ from .rays import TraceFrame
 
 #: Columns of a group's row: the diffuse ambient term, the glossy one, and 1 where the
 #: glossy one was looked up (0: ``shade_hit`` looks it up itself if it adds it).
+#: (Each vec3 at a multiple of four floats: the path kernel copies an item's row out and
+#: reads it back at once, and a read that straddled two of the copy's stores waited for
+#: them, a failed store-to-load forward the line profile showed with rows of seven.)
 DIFFUSE = wp.constant(0)
-GLOSSY = wp.constant(3)
-HAS_GLOSSY = wp.constant(6)
-GroupDome = wp.types.matrix(shape=(ITEM_GROUP, 7), dtype=wp.float32)
+GLOSSY = wp.constant(4)
+HAS_GLOSSY = wp.constant(7)
+ROW_FLOATS = 8
+GroupDome = wp.types.matrix(shape=(ITEM_GROUP, ROW_FLOATS), dtype=wp.float32)
 #: One item's row of a ``GroupDome``.
-DomeRow = wp.types.vector(length=7, dtype=wp.float32)
+DomeRow = wp.types.vector(length=ROW_FLOATS, dtype=wp.float32)
 
 #: Which lanes look the glossy term up: those whose mirror ray carries less than the whole
 #: reflection (``mirror_share`` < 1 above ``GLOSSY_ROUGHNESS``), where ``shade_hit`` adds
@@ -57,7 +61,7 @@ const int pixels = width * tf.cam.height;
 const bool dome = scene.environment.enabled != 0;
 const bool traced = tf.params.max_depth > 0;
 const wp::vec3 eye = tf.cam.origin;
-wp::mat_t<{ITEM_GROUP}, 7, float> out;
+wp::mat_t<{ITEM_GROUP}, {ROW_FLOATS}, float> out;
 if (!traced) return out;  // (at max depth 0 ``shade_hit`` shades the primary point as the raster does)
 {LANE_ARRAYS_CPP}{DOME_LANES_CPP}
 const int end = stop - first < {ITEM_GROUP} ? stop : first + {ITEM_GROUP};  // (never more rows than ``out`` has)
@@ -73,7 +77,13 @@ for (int xs = first; xs < end; xs += CHUNK) {{
 {_FILL_CPP}
         hit[j] = glossy && inside && wh_at(gb.triangle_id, y, x) >= 0 && {GLOSSY_LANE_CPP};
     }}
-{view_cpp(TRACED_KD_CPP)}{dome_terms_cpp(raster=False)}
+{view_cpp(TRACED_KD_CPP)}
+    if (uniform_dome) {{  // (the same irradiance and radiance for every lane)
+        for (int j = 0; j < n; ++j) {{
+            ir[j] = e_free[0]; ig[j] = e_free[1]; ib[j] = e_free[2];
+            sr[j] = sky[0]; sg[j] = sky[1]; sb[j] = sky[2];
+        }}
+    }} else {{{dome_terms_cpp(raster=False)}    }}
     for (int j = 0; j < n; ++j) {{
         const wp::vec3 nn(nx[j], ny[j], nz[j]);
         const wp::vec3 v(vx[j], vy[j], vz[j]);
@@ -85,9 +95,9 @@ for (int xs = first; xs < end; xs += CHUNK) {{
                                                                          wp::vec3(sr[j], sg[j], sb[j])),
                                             wp::vec3(0.0f));
         float* row = out.data[xs - first + j];
-        row[0] = diffuse[0]; row[1] = diffuse[1]; row[2] = diffuse[2];
-        row[3] = specular[0]; row[4] = specular[1]; row[5] = specular[2];
-        row[6] = hit[j] ? 1.0f : 0.0f;
+        row[{DIFFUSE}] = diffuse[0]; row[{DIFFUSE} + 1] = diffuse[1]; row[{DIFFUSE} + 2] = diffuse[2];
+        row[{GLOSSY}] = specular[0]; row[{GLOSSY} + 1] = specular[1]; row[{GLOSSY} + 2] = specular[2];
+        row[{HAS_GLOSSY}] = hit[j] ? 1.0f : 0.0f;
     }}
 }}
 return out;

@@ -103,6 +103,7 @@ class SceneGPU:
     mesh: wp.uint64
     points: wp.array(dtype=wp.vec3)
     indices: wp.array(dtype=wp.int32)
+    triangle_bound: wp.array(dtype=wp.float32)
     corner_normals: wp.array(dtype=wp.vec3)
     corner_uvs: wp.array(dtype=wp.vec2)
     corner_colors: wp.array(dtype=wp.vec3)

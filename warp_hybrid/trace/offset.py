@@ -10,8 +10,9 @@ So the origin moves along the unit geometric normal by
 
     delta = OFFSET_ULPS_M * 2^-23 * max(M, EXTENT_WEIGHT * E)
 
-(``hit_bound``: 16 ulps of M, or 128 ulps of E when the triangle is large compared
-with its distance from the local origin), which exceeds both errors by more than an
+(``hit_bound``, which the device scene keeps for every triangle,
+``scene/device/triangle_bound.py``: 16 ulps of M, or 128 ulps of E when the triangle is
+large compared with its distance from the local origin), which exceeds both errors by more than an
 order of magnitude and is a property of the hit alone, not of the scene: a tiny object
 next to a huge one keeps contact shadows, a scene far from the world origin (stored in
 its local frame, ``scene.local_frame``) or rescaled gets the same offsets relative to
@@ -30,26 +31,14 @@ from ..core.scene_gpu import SceneGPU
 
 #: delta in units of the bound: 16 float32 ulps (2^-23 relative) of it.
 OFFSET_SCALE = wp.constant(2.0**-19)
-#: How the triangle's extent weighs in the bound (128 / 16 ulps: 2^-16 of the extent).
-EXTENT_WEIGHT = wp.constant(8.0)
-
-
-@wp.func
-def _max_abs(v: wp.vec3) -> float:
-    return wp.max(wp.abs(v[0]), wp.max(wp.abs(v[1]), wp.abs(v[2])))
 
 
 @wp.func
 def hit_bound(scene: SceneGPU, face: int) -> float:
     """The magnitude the error of a point on triangle ``face`` scales with:
-    ``max(M, EXTENT_WEIGHT * E)`` (module docstring)."""
-    k = 3 * face
-    p0 = scene.points[scene.indices[k]]
-    p1 = scene.points[scene.indices[k + 1]]
-    p2 = scene.points[scene.indices[k + 2]]
-    m = wp.max(_max_abs(p0), wp.max(_max_abs(p1), _max_abs(p2)))
-    e = wp.max(_max_abs(p1 - p0), wp.max(_max_abs(p2 - p0), _max_abs(p2 - p1)))
-    return wp.max(m, EXTENT_WEIGHT * e)
+    ``max(M, EXTENT_WEIGHT * E)`` (module docstring), kept for every triangle by the
+    device scene (``scene/device/triangle_bound.py``)."""
+    return scene.triangle_bound[face]
 
 
 @wp.func

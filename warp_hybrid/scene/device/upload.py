@@ -47,6 +47,7 @@ from ...timing import StageTimer
 from ..model import Light, Material, Scene
 from .dome import build_ambient, dome_source, same_dome
 from .mipmaps import mip_chain
+from .triangle_bound import triangle_bounds
 from .wide_bvh import WideBVH
 
 
@@ -285,6 +286,7 @@ class DeviceScene:
             d = self.device
             self.points = wp.array(_f32(scene.points, 3), dtype=wp.vec3, device=d)
             self.indices = wp.array(np.ascontiguousarray(scene.indices.reshape(-1), np.int32), dtype=wp.int32, device=d)
+            self.triangle_bound = triangle_bounds(self.points, self.indices)
             self.corner_normals = wp.array(_f32(scene.corner_normals, 3), dtype=wp.vec3, device=d)
             self.corner_uvs = wp.array(_f32(scene.corner_uvs, 2), dtype=wp.vec2, device=d)
             self.corner_colors = wp.array(_corner_colors(scene), dtype=wp.vec3, device=d)
@@ -372,6 +374,7 @@ class DeviceScene:
         s.mesh = wp.uint64(self.mesh.id if self.mesh is not None else 0)
         s.points = self.points
         s.indices = self.indices
+        s.triangle_bound = self.triangle_bound
         s.corner_normals = self.corner_normals
         s.corner_uvs = self.corner_uvs
         s.corner_colors = self.corner_colors
@@ -407,6 +410,7 @@ class DeviceScene:
         elsewhere = False  # something drawn changed beyond the box: colours, lights, materials, images
         if moved_points.any():
             self.points.assign(_f32(scene.points, 3))
+            triangle_bounds(self.points, self.indices, self.triangle_bound)
             self._warp_bvh_stale = True  # refitted by the first pass that queries it (``warp_bvh``)
             if self._wide is not None:
                 self._wide.refit(moved_points)

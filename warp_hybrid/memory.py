@@ -47,6 +47,8 @@ KEY_BYTES = 8
 HOST_BYTES_PER_PIXEL = 3 + 12 + 64
 #: Device bytes per triangle besides its arrays: the main BVH and the shadow BVHs.
 BVH_BYTES_PER_TRIANGLE = 128
+#: Device bytes per triangle of its error bound for ray origins (``scene/device/triangle_bound.py``).
+TRIANGLE_BOUND_BYTES = 4
 #: On the CPU, the 4-wide BVHs over those triangles that the tracer and the ray-cast
 #: primaries query (``scene/device/wide_bvh.py``): 52-55 bytes a triangle each measured
 #: on the shared scenes, and the scene's and the opaque shadow one hold nearly every
@@ -148,7 +150,7 @@ def scene_bytes(scene: Scene, wide_bvh: bool = False) -> int:
     copies, as the CPU tracer builds) and texel mip chains."""
     per_triangle = BVH_BYTES_PER_TRIANGLE + (WIDE_BVH_BYTES_PER_TRIANGLE if wide_bvh else 0)
     arrays = sum(a.nbytes for a in (scene.points, scene.indices, scene.corner_normals, scene.corner_uvs))
-    arrays += scene.triangle_material.nbytes + per_triangle * scene.triangle_count
+    arrays += scene.triangle_material.nbytes + (TRIANGLE_BOUND_BYTES + per_triangle) * scene.triangle_count
     texels = sum(image.pixels.nbytes for image in scene.images)
     return int(arrays + MIP_FACTOR * texels)
 

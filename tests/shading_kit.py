@@ -57,7 +57,7 @@ def gbuffer_under_rect(device: str, rng: np.random.Generator, width: int, height
     """Points below the rect light; row 0 faces it (the rectangle above every horizon),
     row 1 faces sideways under it (the horizon cuts it at every pixel), the other rows
     have random normals (a mix); random colours, roughness 0.15-1, every third pixel
-    glass (material 1), every pixel on triangle 0."""
+    glass (material 1) but in row 0, every pixel on triangle 0."""
     h, w = height, width
     gb = GBuffer(w, h, device)
     pos = np.zeros((h, w, 3), np.float32)
@@ -78,7 +78,9 @@ def gbuffer_under_rect(device: str, rng: np.random.Generator, width: int, height
     optics["opacity"] = rng.uniform(0.0, 1.0, (h, w))
     optics["ior"] = rng.uniform(1.2, 2.0, (h, w))
     gb.optics.assign(optics)
-    gb.material_id.assign((np.arange(h * w).reshape(h, w) % 3 == 0).astype(np.int32))
+    glass = np.arange(h * w).reshape(h, w) % 3 == 0
+    glass[0] = False  # (row 0: no transmissive pixel, as most of a scene's rows)
+    gb.material_id.assign(glass.astype(np.int32))
     gb.triangle_id.assign(np.zeros((h, w), np.int32))
     return gb
 

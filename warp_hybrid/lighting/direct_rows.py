@@ -59,18 +59,27 @@ def lane_fill_cpp(position: str, normal: str, albedo: str, specular: str, optics
 
 
 # (2) the view direction and the diffuse colour of the chunk's pixels (``kd``: the C++
-# expression of the diffuse colour, given ``nn``, ``v`` and the lane arrays), the sums zeroed.
+# expression of the diffuse colour, given ``nn``, ``v`` and the lane arrays), the sums
+# zeroed; ``glass_lanes``, how many of the chunk's pixels are transmissive.
 def view_cpp(kd: str) -> str:
-    """C++ of step (2) with the diffuse colour ``kd``."""
+    """C++ of step (2) with the diffuse colour ``kd``, which must be the albedo where a
+    pixel is not transmissive: a chunk without a transmissive pixel takes its albedo as
+    it is (``kd``'s glass terms, a Fresnel factor with three divisions, computed for
+    every pixel of a branch-free loop, fold away)."""
     return f"""
-    for (int j = 0; j < n; ++j) {{
-        const wp::vec3 nn(nx[j], ny[j], nz[j]);
-        const wp::vec3 v = wh_normalize(wp::sub(eye, wp::vec3(px[j], py[j], pz[j])));
-        const wp::vec3 kd = {kd};
-        vx[j] = v[0]; vy[j] = v[1]; vz[j] = v[2];
-        kr[j] = kd[0]; kg[j] = kd[1]; kb[j] = kd[2];
-        dr[j] = 0.0f; dg[j] = 0.0f; db[j] = 0.0f;
-    }}
+    int glass_lanes = 0;
+    for (int j = 0; j < n; ++j) glass_lanes += (flags[j] & {int(FLAG_TRANSMISSIVE)}) != 0 ? 1 : 0;
+    auto view = [&](const bool glass) WH_INLINE {{
+        for (int j = 0; j < n; ++j) {{
+            const wp::vec3 nn(nx[j], ny[j], nz[j]);
+            const wp::vec3 v = wh_normalize(wp::sub(eye, wp::vec3(px[j], py[j], pz[j])));
+            const wp::vec3 kd = glass ? {kd} : wp::vec3(ar[j], ag[j], ab[j]);
+            vx[j] = v[0]; vy[j] = v[1]; vz[j] = v[2];
+            kr[j] = kd[0]; kg[j] = kd[1]; kb[j] = kd[2];
+            dr[j] = 0.0f; dg[j] = 0.0f; db[j] = 0.0f;
+        }}
+    }};
+    if (glass_lanes > 0) view(true); else view(false);
 """
 
 
@@ -175,15 +184,16 @@ def dome_terms_cpp(raster: bool) -> str:
 
     (a) across lanes, the irradiance at the normal (SH) into ``ir, ig, ib``, the dome-local
     direction the lane reads (the mirror direction on a surface; with ``raster`` the camera
-    ray on the background) and its lat-long uv, with ``raster`` the uv straight behind the
-    surface (what glass lets through); then ``wh_prefiltered_at``'s choices as selects: the
+    ray on the background) and its lat-long uv; then ``wh_prefiltered_at``'s choices as selects: the
     lobe's level of detail (``wh_prefilter_lod``), the level ``fa`` reads and whether it
     blends with a second value (the next level ``fb``, or past the chain's top the SH
     irradiance) and by what weights, and each fetch's footprint (every lane's, as the loop
     has no branches); (b) lane by lane only the loads of the fetches a lane uses and their
     bilinear blend; (c) across lanes the looked-up radiance into ``sr, sg, sb`` (the dome's
-    colour, scale and bias on level 0's values, the blend of the two values) and with
-    ``raster`` the dome behind glass into ``tr, tg, tb``.  ``hit[j]``: the lane reads the
+    colour, scale and bias on level 0's values, the blend of the two values); and with
+    ``raster``, in a chunk with a transmissive pixel (``glass_lanes``), the dome straight
+    behind each glass pixel (what glass lets through) into ``tr, tg, tb``, its uv and
+    footprint across lanes, its loads lane by lane.  ``hit[j]``: the lane reads the
     lobe at its surface's mirror direction; a lane that is not one reads level 0 along its
     camera ray with ``raster``, nothing without (its values are not used).  The same
     operations as the scalar lookups (``wh_environment_radiance_at``, ``wh_prefiltered_at``),
@@ -191,23 +201,28 @@ def dome_terms_cpp(raster: bool) -> str:
     if raster:
         direction = """const wp::vec3 ray = wh_pixel_ray(wp::add((float)(xs + j), cam.sample[0]), wp::add((float)y, cam.sample[1]));
         const wp::vec3 d = wp::mul(env.world_to_light, wh_select(hit[j], mirror, ray));"""
-        behind_uv = """
-        const wp::vec2 behind = wh_environment_uv(wp::mul(env.world_to_light, wp::neg(v)));
-        bx[j] = behind[0]; by[j] = behind[1];"""
-        behind_footprint = f"""
-        glass[j] = hit[j] && dome && (flags[j] & {int(FLAG_TRANSMISSIVE)}) != 0;
-        wh_latlong_footprint(dome_offset, dome_width, dome_height, wp::vec2(bx[j], by[j]), ft00[j], ft01[j], ft10[j],
-                             ft11[j], ftx[j], fty[j]);"""
-        behind_fetch = _fetch_cpp("ft", "glass[j] && textured", "true")
-        behind_value = """
-        const wp::vec3 b(ftc[0][j], ftc[1][j], ftc[2][j]);
-        const wp::vec3 behind = textured ? wh_dome_scaled(env, *dome_texture, b) : env.color;
-        const wp::vec3 tt = glass[j] ? behind : wp::vec3(0.0f);
-        tr[j] = tt[0]; tg[j] = tt[1]; tb[j] = tt[2];"""
+        # (only in a chunk with a transmissive pixel: ``glass_lanes``, ``view_cpp``)
+        behind = f"""
+    if (glass_lanes > 0) {{
+        for (int j = 0; j < n; ++j) {{
+            const wp::vec3 v(vx[j], vy[j], vz[j]);
+            const wp::vec2 behind = wh_environment_uv(wp::mul(env.world_to_light, wp::neg(v)));
+            glass[j] = hit[j] && dome && (flags[j] & {int(FLAG_TRANSMISSIVE)}) != 0;
+            wh_latlong_footprint(dome_offset, dome_width, dome_height, behind, ft00[j], ft01[j], ft10[j], ft11[j],
+                                 ftx[j], fty[j]);
+        }}
+{_fetch_cpp("ft", "glass[j] && textured", "true")}
+        for (int j = 0; j < n; ++j) {{
+            const wp::vec3 b(ftc[0][j], ftc[1][j], ftc[2][j]);
+            const wp::vec3 behind = textured ? wh_dome_scaled(env, *dome_texture, b) : env.color;
+            const wp::vec3 tt = glass[j] ? behind : wp::vec3(0.0f);
+            tr[j] = tt[0]; tg[j] = tt[1]; tb[j] = tt[2];
+        }}
+    }}"""
         first_wanted = "level[j] != 0 || textured"
     else:
         direction = "const wp::vec3 d = wp::mul(env.world_to_light, mirror);"
-        behind_uv = behind_footprint = behind_fetch = behind_value = ""
+        behind = ""
         first_wanted = "hit[j] && (level[j] != 0 || textured)"
     return f"""
     for (int j = 0; j < n; ++j) {{
@@ -219,7 +234,7 @@ def dome_terms_cpp(raster: bool) -> str:
         {direction}
         ox[j] = d[0]; oy[j] = d[1]; oz[j] = d[2];
         const wp::vec2 uv = wh_environment_uv(d);
-        ux[j] = uv[0]; uy[j] = uv[1];{behind_uv}
+        ux[j] = uv[0]; uy[j] = uv[1];
     }}
     for (int j = 0; j < n; ++j) {{
         const wp::vec2 uv(ux[j], uy[j]);
@@ -243,11 +258,10 @@ def dome_terms_cpp(raster: bool) -> str:
                              la == 0 ? dome_height : a_height, uv, fa00[j], fa01[j], fa10[j], fa11[j], fax[j],
                              fay[j]);
         wh_latlong_footprint(amb.mip_offset.data[kb], amb.mip_width.data[kb], amb.mip_height.data[kb], uv, fb00[j],
-                             fb01[j], fb10[j], fb11[j], fbx[j], fby[j]);{behind_footprint}
+                             fb01[j], fb10[j], fb11[j], fbx[j], fby[j]);
     }}
 {_fetch_cpp("fa", first_wanted, "level[j] == 0")}
 {_fetch_cpp("fb", "two_levels[j]", "false")}
-{behind_fetch}
     for (int j = 0; j < n; ++j) {{
         const wp::vec3 a(fac[0][j], fac[1][j], fac[2][j]);
         const wp::vec3 on_dome = textured ? wh_dome_scaled(env, *dome_texture, a) : env.color;
@@ -260,8 +274,8 @@ def dome_terms_cpp(raster: bool) -> str:
         const wp::vec3 s = above_top[j] || two_levels[j]
                                ? wp::add(wp::mul(second, add_weight[j]), wp::mul(first, keep[j]))
                                : first;
-        sr[j] = s[0]; sg[j] = s[1]; sb[j] = s[2];{behind_value}
-    }}
+        sr[j] = s[0]; sg[j] = s[1]; sb[j] = s[2];
+    }}{behind}
 """
 
 
@@ -303,8 +317,10 @@ const wp::vec3* mip_texels = amb.mip_texels.data;
 # no surface.
 _RADIANCE_CPP = f"""
     if (!uniform_dome) {{{dome_terms_cpp(raster=True)}    }}
-    // (a literal ``uniform``: the row's one irradiance and radiance, folded in as constants)
-    auto radiance = [&](const bool uniform) WH_INLINE {{
+    // (a literal ``uniform``: the row's one irradiance and radiance, folded in as constants;
+    // a literal ``glass``: false in a chunk without a transmissive pixel, whose light
+    // through glass then folds away)
+    auto radiance = [&](const bool uniform, const bool glass) WH_INLINE {{
         for (int j = 0; j < n; ++j) {{
             const wp::vec3 nn(nx[j], ny[j], nz[j]);
             const wp::vec3 v(vx[j], vy[j], vz[j]);
@@ -315,14 +331,18 @@ _RADIANCE_CPP = f"""
             const wp::vec3 glossy = wh_select(amb.enabled != 0, wp::cw_mul(wh_env_brdf(amb.brdf_lut, f0, rough[j],
                                                                                        wp::dot(nn, v)), s),
                                               wp::vec3(0.0f));
-            const wp::vec3 c = wh_surface_radiance(false, dome, nn, v, wp::vec3(ar[j], ag[j], ab[j]),
+            const wp::vec3 c = wh_surface_radiance(false, glass && dome, nn, v, wp::vec3(ar[j], ag[j], ab[j]),
                                                    wp::vec3(kr[j], kg[j], kb[j]), f0, wp::vec3(er[j], eg[j], eb[j]),
                                                    opac[j], ior[j], flags[j], wp::vec3(dr[j], dg[j], db[j]), e, glossy,
                                                    t);
             cr[j] = hit[j] ? c[0] : s[0]; cg[j] = hit[j] ? c[1] : s[1]; cb[j] = hit[j] ? c[2] : s[2];
         }}
     }};
-    if (uniform_dome) radiance(true); else radiance(false);
+    if (glass_lanes > 0) {{
+        if (uniform_dome) radiance(true, true); else radiance(false, true);
+    }} else {{
+        if (uniform_dome) radiance(true, false); else radiance(false, false);
+    }}
     for (int j = 0; j < n; ++j) out[xs + j] = wp::vec3(cr[j], cg[j], cb[j]);
 """
 

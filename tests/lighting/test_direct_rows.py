@@ -145,6 +145,7 @@ def test_lit_row_loop_matches_the_scalar_shading(device, dome, indirect):
     gb.emission.assign(emission)
     triangles = np.zeros((H, W), np.int32)
     triangles[:, 7::9] = -1  # background pixels among the hits
+    triangles[-1] = -1  # and a row of background alone (chunks that take no light)
     gb.triangle_id.assign(triangles)
     got = wp.zeros((H, W), dtype=wp.vec3, device=device)
     want = wp.zeros((H, W), dtype=wp.vec3, device=device)

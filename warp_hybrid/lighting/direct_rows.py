@@ -338,7 +338,12 @@ _RADIANCE_CPP = f"""
             cr[j] = hit[j] ? c[0] : s[0]; cg[j] = hit[j] ? c[1] : s[1]; cb[j] = hit[j] ? c[2] : s[2];
         }}
     }};
-    if (glass_lanes > 0) {{
+    if (surface_lanes == 0) {{  // (the background's radiance alone)
+        for (int j = 0; j < n; ++j) {{
+            const wp::vec3 s = uniform_dome ? sky : wp::vec3(sr[j], sg[j], sb[j]);
+            cr[j] = s[0]; cg[j] = s[1]; cb[j] = s[2];
+        }}
+    }} else if (glass_lanes > 0) {{
         if (uniform_dome) radiance(true, true); else radiance(false, true);
     }} else {{
         if (uniform_dome) radiance(true, false); else radiance(false, false);
@@ -378,7 +383,15 @@ float er[CHUNK], eg[CHUNK], eb[CHUNK];"""
         if lit
         else ""
     )
-    store = _RADIANCE_CPP if lit else "    for (int j = 0; j < n; ++j) out[xs + j] = wp::vec3(dr[j], dg[j], db[j]);\n"
+    if lit:
+        # (a chunk of background pixels alone, ``surface_lanes`` 0, takes no light)
+        shade = f"""{view_cpp(RASTER_KD_CPP)}
+    int surface_lanes = 0;
+    for (int j = 0; j < n; ++j) surface_lanes += hit[j] ? 1 : 0;
+    if (surface_lanes > 0) {{{light_loop_cpp(_UNSHADOWED_SUM_CPP)}    }}
+{_RADIANCE_CPP}"""
+    else:
+        shade = _LIGHTS_CPP + "    for (int j = 0; j < n; ++j) out[xs + j] = wp::vec3(dr[j], dg[j], db[j]);\n"
     return (
         CHUNK_CPP
         + cpp(
@@ -405,7 +418,7 @@ for (int xs = x0; xs < x1; xs += CHUNK) {{
         const int x = xs + j;
 {lane_fill_cpp("position[x]", "normal[x]", "albedo[x]", "specular[x]", "optics[x]", "material[x]")}{lit_gather}
     }}
-{_LIGHTS_CPP}{store}}}
+{shade}}}
 """
     )
 

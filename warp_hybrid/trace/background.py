@@ -1,15 +1,16 @@
-"""The dome along the traced background pixels' camera rays, across a group of the path
-kernel's items.
+"""The dome where the path kernel's rays leave the scene, across a group of its items.
 
 ``path.begin_item`` gave a pixel that sees no surface the dome's radiance along its
-camera ray (``environment_radiance``), one pixel at a time: the camera ray, its two
-lat-long arctangents and the bilinear footprint, scalar. On Suzanne's full frame (40%
-background) that was 8-13 of the path kernel's 75-80 ms on one thread. Here the group's
-pixels are gathered through the pixel list, then their rays, uvs and footprints are
-computed across the group (vectorised: straight-line arithmetic over lane arrays), and
-only the background lanes' texel loads and their blend run lane by lane. The same
-lambdas as the scalar lookup (``environment.ENVIRONMENT_LAMBDAS_CPP``, the camera ray's
-``CAMERA_RAY_CPP``), in the same module, so the same bits.
+camera ray (``environment_radiance``), and ``path.finish_item`` a ray that escapes the
+dome's radiance along it, one ray at a time: the direction's two lat-long arctangents
+and the bilinear footprint, scalar. On Suzanne's full frame (40% background) the
+background alone was 8-13 of the path kernel's 75-80 ms on one thread, the escaping
+first rays (its chrome's reflections) about another 4%. Here the group's camera rays
+(``group_background``) and its first rays that the packet query found to miss
+(``first_ray_sky``) are looked up across the group (vectorised: straight-line
+arithmetic over lane arrays), only the texel loads and their blend lane by lane. The
+same lambdas as the scalar lookup (``environment.ENVIRONMENT_LAMBDAS_CPP``, the camera
+ray's ``CAMERA_RAY_CPP``), in the same module, so the same bits.
 """
 
 from __future__ import annotations
@@ -25,6 +26,12 @@ from .rays import TraceFrame
 
 #: One launch item's background radiance: row ``k`` for its ``k``-th item.
 GroupBackground = wp.types.matrix(shape=(ITEM_GROUP, 3), dtype=wp.float32)
+#: One launch item's first rays' directions (row ``k``: its ``k``-th item's), their packet
+#: query's answers (``wide_bvh.hit_from_row``'s rows: column 7 is 1 for a hit) and which
+#: items' first rays were queried.
+GroupDirections = wp.types.matrix(shape=(ITEM_GROUP, 3), dtype=wp.float32)
+GroupHits = wp.types.matrix(shape=(ITEM_GROUP, 8), dtype=wp.float32)
+GroupFlags = wp.types.vector(length=ITEM_GROUP, dtype=wp.int32)
 
 _GROUP_CPP = (
     cpp("environment")
@@ -91,4 +98,57 @@ def group_background(scene: SceneGPU, tf: TraceFrame, first: int, stop: int) -> 
     its camera ray (``environment_radiance(scene, pixel_ray_direction(tf.cam, x, y))``,
     bit for bit; black without a dome).  The rows of other items hold values nobody
     reads."""
+    ...
+
+
+_SKY_CPP = (
+    cpp("environment")
+    + f"""
+constexpr int G = {ITEM_GROUP};
+const auto& env = scene.environment;
+wp::mat_t<G, 3, float> out;
+if (env.enabled == 0) return out;
+bool miss[G];
+int count = 0;
+for (int j = 0; j < G; ++j) {{
+    miss[j] = queried[j] != 0 && !(hits.data[j][7] > 0.0f);
+    count += miss[j] ? 1 : 0;
+}}
+if (count == 0) return out;
+if (env.texture < 0) {{
+    for (int j = 0; j < G; ++j) {{
+        out.data[j][0] = env.color[0]; out.data[j][1] = env.color[1]; out.data[j][2] = env.color[2];
+    }}
+    return out;
+}}
+const auto& tex = scene.textures.data[env.texture];
+const wp::mat33 to_dome = env.world_to_light;
+float fx[G], fy[G];
+int i00[G], i01[G], i10[G], i11[G];
+// (across the lanes: every lane's uv and footprint, a ray or not)
+for (int j = 0; j < G; ++j) {{
+    const wp::vec3 d = wp::mul(to_dome, wp::vec3(directions.data[j][0], directions.data[j][1], directions.data[j][2]));
+    wh_latlong_footprint(tex.offset, tex.width, tex.height, wh_environment_uv(d), i00[j], i01[j], i10[j], i11[j],
+                         fx[j], fy[j]);
+}}
+const wp::vec4* texels = scene.texels.data;
+for (int j = 0; j < G; ++j) {{
+    if (!miss[j]) continue;
+    const wp::vec4 t = wh_bilinear_blend(texels[i00[j]], texels[i01[j]], texels[i10[j]], texels[i11[j]], fx[j], fy[j]);
+    const wp::vec3 c = wh_dome_scaled(env, tex, wp::vec3(t[0], t[1], t[2]));
+    out.data[j][0] = c[0]; out.data[j][1] = c[1]; out.data[j][2] = c[2];
+}}
+return out;
+"""
+)
+
+
+@wp.func_native(_SKY_CPP)
+def first_ray_sky(
+    scene: SceneGPU, directions: GroupDirections, hits: GroupHits, queried: GroupFlags
+) -> GroupBackground:
+    """Row ``k``: where item ``k``'s first ray was queried (``queried[k]`` non-zero) and
+    missed (``hits[k]``), the dome's radiance along ``directions[k]``
+    (``environment_radiance``, bit for bit; black without a dome).  Other rows hold
+    values nobody reads."""
     ...

@@ -62,7 +62,7 @@ from ..parallel import ITEM_GROUP
 from ..scene.device.environment import environment_radiance
 from ..scene.device.surface import SurfaceHit, is_cut_away, samples_textures, surface_at_grad
 from ..scene.device.wide_bvh import PACKET, WideHit, hit_from_row, wide_closest, wide_closest_packet
-from .background import GroupBackground, group_background
+from .background import GroupBackground, GroupDirections, GroupFlags, GroupHits, first_ray_sky, group_background
 from .cone import cone_footprint
 from .occluders import OccluderGPU
 from .offset import hit_bound, offset_ray_origin
@@ -210,8 +210,6 @@ if ITEM_GROUP % PACKET != 0:
 _start_floats = wp.types.vector(length=_START_FLOATS, dtype=wp.float32)
 _group_starts = wp.types.matrix(shape=(ITEM_GROUP, _START_FLOATS), dtype=wp.float32)
 #: A group's first hits (rows as ``wide_closest_packet``'s) and which of them are found.
-_group_hits = wp.types.matrix(shape=(ITEM_GROUP, 8), dtype=wp.float32)
-_group_flags = wp.types.vector(length=ITEM_GROUP, dtype=wp.int32)
 _packet_vec3s = wp.types.matrix(shape=(PACKET, 3), dtype=wp.float32)
 _packet_floats = wp.types.vector(length=PACKET, dtype=wp.float32)
 
@@ -573,11 +571,13 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
         start: PathStart,
         first_hit: WideHit,
         first_found: bool,
+        first_sky: wp.vec3,
     ):
         """List item ``item``'s path on from ``start`` (``begin_item``): its rays traced
         and their hits shaded, the radiance into ``color`` and the ray counts into
         ``tf.counts``.  With ``first_found`` the first ray's nearest hit is ``first_hit``
-        (the group's packet query) instead of a query of its own."""
+        (the group's packet query) instead of a query of its own, and where it misses
+        ``first_sky`` is the dome along it (``background.first_ray_sky``)."""
         if start.live == 0:
             return
         xy = listed_pixel(tf.pixels, item, tf.cam.width, tf.cam.height)
@@ -667,6 +667,7 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
             else:
                 refract_rays += 1
             hit = closest_hit(scene, tf.occ, ray.origin, ray.direction, first_hit, given)
+            was_given = given
             given = False
             if hit.face >= 0:
                 footprint = wp.vec4(0.0, 0.0, 0.0, 0.0)
@@ -681,7 +682,10 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
                 have_hit = 1
             else:
                 if wp.static(environment):
-                    radiance += wp.cw_mul(ray.weight, environment_radiance(scene, ray.direction))
+                    sky = first_sky  # (the group's lookup: a first ray the packet query found to miss)
+                    if not was_given or first_hit.result:  # (a first hit cut away, a later ray)
+                        sky = environment_radiance(scene, ray.direction)
+                    radiance += wp.cw_mul(ray.weight, sky)
             ray = no_ray()  # traced: the next comes from this hit or the stack
         color[y, x] = radiance
         tf.counts[item, 1] = shadow_rays
@@ -717,8 +721,9 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
                 # as packets (neighbouring pixels' reflections and refractions share the
                 # nodes they visit), then each path on from its first hit
                 starts = _group_starts()
-                first_hits = _group_hits()
-                given = _group_flags()
+                first_hits = GroupHits()
+                first_directions = GroupDirections()
+                given = GroupFlags()
                 packet_o = _packet_vec3s()
                 packet_d = _packet_vec3s()
                 for item in range(chunk, chunk_end):
@@ -737,6 +742,7 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
                             if starts[j, _LIVE] != 0.0 and ray.kind != KIND_NONE:
                                 packet_o[k] = ray.origin
                                 packet_d[k] = ray.direction
+                                first_directions[j] = ray.direction
                                 packet_t[k] = wp.inf
                                 rays += 1
                     if rays >= _PACKET_MIN:
@@ -745,16 +751,27 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
                             if packet_t[k] > 0.0:
                                 first_hits[p * PACKET + k] = found[k]
                                 given[p * PACKET + k] = 1
+                sky = GroupBackground()
+                if wp.static(environment):
+                    sky = first_ray_sky(scene, first_directions, first_hits, given)
                 for item in range(chunk, chunk_end):
                     j = item - chunk
                     finish_item(
-                        scene, amb, tf, color, item, _row_start(starts[j]), hit_from_row(first_hits[j]), given[j] != 0
+                        scene,
+                        amb,
+                        tf,
+                        color,
+                        item,
+                        _row_start(starts[j]),
+                        hit_from_row(first_hits[j]),
+                        given[j] != 0,
+                        sky[j],
                     )
             else:
                 for item in range(chunk, chunk_end):
                     st = begin_item(
                         scene, amb, tf, color, item, direct[item - chunk], terms[item - chunk], dome[item - chunk]
                     )
-                    finish_item(scene, amb, tf, color, item, st, WideHit(), False)
+                    finish_item(scene, amb, tf, color, item, st, WideHit(), False, wp.vec3(0.0, 0.0, 0.0))
 
     return trace_path

@@ -564,6 +564,13 @@ auto store_hit = [&](int j, int mid, const wp::vec3& albedo, const wp::vec3& spe
 }};
 for (; xs < x1; xs += CHUNK) {{
     const int n = x1 - xs < CHUNK ? x1 - xs : CHUNK;
+    // (a chunk of background pixels alone takes the background's values, nothing else)
+    int hits = 0;
+    for (int j = 0; j < n; ++j) hits += tris[xs + j] >= 0 ? 1 : 0;
+    if (hits == 0) {{
+        for (int j = 0; j < n; ++j) store_background(row + (size_t)(xs + j));
+        continue;
+    }}
     // (a run of pixels on one triangle fetches its corners once)
     for (int run = 0; run < n;) {{
         const int tri = tris[xs + run];

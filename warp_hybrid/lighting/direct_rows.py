@@ -195,7 +195,8 @@ def dome_terms_cpp(raster: bool) -> str:
     behind each glass pixel (what glass lets through) into ``tr, tg, tb``, its uv and
     footprint across lanes, its loads lane by lane.  ``hit[j]``: the lane reads the
     lobe at its surface's mirror direction; a lane that is not one reads level 0 along its
-    camera ray with ``raster``, nothing without (its values are not used).  The same
+    camera ray with ``raster``, nothing without (its values are not used; a chunk without
+    a lane that reads the lobe then takes the irradiance alone, its radiance zero).  The same
     operations as the scalar lookups (``wh_environment_radiance_at``, ``wh_prefiltered_at``),
     so the same bits."""
     if raster:
@@ -224,18 +225,38 @@ def dome_terms_cpp(raster: bool) -> str:
         direction = "const wp::vec3 d = wp::mul(env.world_to_light, mirror);"
         behind = ""
         first_wanted = "hit[j] && (level[j] != 0 || textured)"
-    return f"""
-    for (int j = 0; j < n; ++j) {{
+    irradiance = """
         const wp::vec3 nn(nx[j], ny[j], nz[j]);
         const wp::vec3 v(vx[j], vy[j], vz[j]);
         const wp::vec3 e = wh_ambient_irradiance(env, amb, nn, false);
-        ir[j] = e[0]; ig[j] = e[1]; ib[j] = e[2];
+        ir[j] = e[0]; ig[j] = e[1]; ib[j] = e[2];"""
+    uv = f"""
         const wp::vec3 mirror = wp::sub(wp::mul(nn, wp::mul(2.0f, wp::dot(nn, v))), v);
         {direction}
         ox[j] = d[0]; oy[j] = d[1]; oz[j] = d[2];
         const wp::vec2 uv = wh_environment_uv(d);
-        ux[j] = uv[0]; uy[j] = uv[1];
+        ux[j] = uv[0]; uy[j] = uv[1];"""
+    if raster:  # (every lane reads the dome: its surface's lobe or its camera ray)
+        head = f"""
+    for (int j = 0; j < n; ++j) {{{irradiance}{uv}
     }}
+    {{"""
+    else:  # (without a lane that looks the lobe up, the irradiance alone)
+        head = f"""
+    for (int j = 0; j < n; ++j) {{{irradiance}
+    }}
+    int lookups = 0;
+    for (int j = 0; j < n; ++j) lookups += hit[j] ? 1 : 0;
+    if (lookups == 0) {{
+        for (int j = 0; j < n; ++j) {{
+            sr[j] = 0.0f; sg[j] = 0.0f; sb[j] = 0.0f;
+        }}
+    }} else {{
+    for (int j = 0; j < n; ++j) {{
+        const wp::vec3 nn(nx[j], ny[j], nz[j]);
+        const wp::vec3 v(vx[j], vy[j], vz[j]);{uv}
+    }}"""
+    return f"""{head}
     for (int j = 0; j < n; ++j) {{
         const wp::vec2 uv(ux[j], uy[j]);
         const float lod = wh_prefilter_lod(amb, rough[j]);
@@ -275,6 +296,7 @@ def dome_terms_cpp(raster: bool) -> str:
                                ? wp::add(wp::mul(second, add_weight[j]), wp::mul(first, keep[j]))
                                : first;
         sr[j] = s[0]; sg[j] = s[1]; sb[j] = s[2];
+    }}
     }}{behind}
 """
 

@@ -33,6 +33,41 @@ GroupDirections = wp.types.matrix(shape=(ITEM_GROUP, 3), dtype=wp.float32)
 GroupHits = wp.types.matrix(shape=(ITEM_GROUP, 8), dtype=wp.float32)
 GroupFlags = wp.types.vector(length=ITEM_GROUP, dtype=wp.int32)
 
+
+def _dome_along_cpp(lanes: str, wanted: str, direction: str) -> str:
+    """C++ that ends a group function: ``out``'s first ``lanes`` rows where ``wanted`` (a
+    condition on lane ``j``, ``count`` lanes in all) hold the dome's radiance along
+    ``direction`` (a C++ expression of lane ``j``'s world direction, any length):
+    ``environment_radiance``'s arithmetic, its uvs and footprints across all the lanes,
+    the texel loads only where wanted."""
+    return f"""
+if (count == 0) return out;
+if (env.texture < 0) {{
+    for (int j = 0; j < {lanes}; ++j) {{
+        out.data[j][0] = env.color[0]; out.data[j][1] = env.color[1]; out.data[j][2] = env.color[2];
+    }}
+    return out;
+}}
+const auto& tex = scene.textures.data[env.texture];
+const wp::mat33 to_dome = env.world_to_light;
+float fx[G], fy[G];
+int i00[G], i01[G], i10[G], i11[G];
+for (int j = 0; j < {lanes}; ++j) {{
+    const wp::vec3 d = wp::mul(to_dome, {direction});
+    wh_latlong_footprint(tex.offset, tex.width, tex.height, wh_environment_uv(d), i00[j], i01[j], i10[j], i11[j],
+                         fx[j], fy[j]);
+}}
+const wp::vec4* texels = scene.texels.data;
+for (int j = 0; j < {lanes}; ++j) {{
+    if (!({wanted})) continue;
+    const wp::vec4 t = wh_bilinear_blend(texels[i00[j]], texels[i01[j]], texels[i10[j]], texels[i11[j]], fx[j], fy[j]);
+    const wp::vec3 c = wh_dome_scaled(env, tex, wp::vec3(t[0], t[1], t[2]));
+    out.data[j][0] = c[0]; out.data[j][1] = c[1]; out.data[j][2] = c[2];
+}}
+return out;
+"""
+
+
 _GROUP_CPP = (
     cpp("environment")
     + WH_AT_CPP
@@ -49,8 +84,7 @@ if (env.enabled == 0) return out;
 const int n = stop - first < G ? stop - first : G;
 const int width = cam.width;
 const int pixels = width * cam.height;
-float sx[G], sy[G], fx[G], fy[G];
-int i00[G], i01[G], i10[G], i11[G];
+float sx[G], sy[G];
 bool background[G];
 int count = 0;
 for (int j = 0; j < n; ++j) {{
@@ -63,31 +97,8 @@ for (int j = 0; j < n; ++j) {{
     count += background[j] ? 1 : 0;
     sx[j] = wp::add((float)x, cam.sample[0]);
     sy[j] = wp::add((float)y, cam.sample[1]);
-}}
-if (count == 0) return out;
-if (env.texture < 0) {{
-    for (int j = 0; j < n; ++j) {{
-        out.data[j][0] = env.color[0]; out.data[j][1] = env.color[1]; out.data[j][2] = env.color[2];
-    }}
-    return out;
-}}
-const auto& tex = scene.textures.data[env.texture];
-const wp::mat33 to_dome = env.world_to_light;
-// (across the lanes: every pixel's ray, uv and footprint, background or not)
-for (int j = 0; j < n; ++j) {{
-    const wp::vec3 d = wp::mul(to_dome, wh_normalize(wh_pixel_ray(sx[j], sy[j])));
-    wh_latlong_footprint(tex.offset, tex.width, tex.height, wh_environment_uv(d), i00[j], i01[j], i10[j], i11[j],
-                         fx[j], fy[j]);
-}}
-const wp::vec4* texels = scene.texels.data;
-for (int j = 0; j < n; ++j) {{
-    if (!background[j]) continue;
-    const wp::vec4 t = wh_bilinear_blend(texels[i00[j]], texels[i01[j]], texels[i10[j]], texels[i11[j]], fx[j], fy[j]);
-    const wp::vec3 c = wh_dome_scaled(env, tex, wp::vec3(t[0], t[1], t[2]));
-    out.data[j][0] = c[0]; out.data[j][1] = c[1]; out.data[j][2] = c[2];
-}}
-return out;
-"""
+}}"""
+    + _dome_along_cpp("n", "background[j]", "wh_normalize(wh_pixel_ray(sx[j], sy[j]))")
 )
 
 
@@ -113,33 +124,8 @@ int count = 0;
 for (int j = 0; j < G; ++j) {{
     miss[j] = queried[j] != 0 && !(hits.data[j][7] > 0.0f);
     count += miss[j] ? 1 : 0;
-}}
-if (count == 0) return out;
-if (env.texture < 0) {{
-    for (int j = 0; j < G; ++j) {{
-        out.data[j][0] = env.color[0]; out.data[j][1] = env.color[1]; out.data[j][2] = env.color[2];
-    }}
-    return out;
-}}
-const auto& tex = scene.textures.data[env.texture];
-const wp::mat33 to_dome = env.world_to_light;
-float fx[G], fy[G];
-int i00[G], i01[G], i10[G], i11[G];
-// (across the lanes: every lane's uv and footprint, a ray or not)
-for (int j = 0; j < G; ++j) {{
-    const wp::vec3 d = wp::mul(to_dome, wp::vec3(directions.data[j][0], directions.data[j][1], directions.data[j][2]));
-    wh_latlong_footprint(tex.offset, tex.width, tex.height, wh_environment_uv(d), i00[j], i01[j], i10[j], i11[j],
-                         fx[j], fy[j]);
-}}
-const wp::vec4* texels = scene.texels.data;
-for (int j = 0; j < G; ++j) {{
-    if (!miss[j]) continue;
-    const wp::vec4 t = wh_bilinear_blend(texels[i00[j]], texels[i01[j]], texels[i10[j]], texels[i11[j]], fx[j], fy[j]);
-    const wp::vec3 c = wh_dome_scaled(env, tex, wp::vec3(t[0], t[1], t[2]));
-    out.data[j][0] = c[0]; out.data[j][1] = c[1]; out.data[j][2] = c[2];
-}}
-return out;
-"""
+}}"""
+    + _dome_along_cpp("G", "miss[j]", "wp::vec3(directions.data[j][0], directions.data[j][1], directions.data[j][2])")
 )
 
 

@@ -22,10 +22,10 @@ import warp as wp
 from ..core.constants import GLOSSY_ROUGHNESS
 from ..core.native_rows import CHUNK_CPP, WH_AT_CPP, float_literal
 from ..core.scene_gpu import AmbientGPU, SceneGPU
-from ..lighting.direct_rows import DOME_LANES_CPP, LANE_ARRAYS_CPP, dome_terms_cpp, lane_fill_cpp, view_cpp
+from ..lighting.direct_rows import DOME_LANES_CPP, LANE_ARRAYS_CPP, dome_terms_cpp, view_cpp
 from ..lighting.native_math import cpp
 from ..parallel import ITEM_GROUP
-from .primary_light import TRACED_KD_CPP
+from .primary_light import GROUP_FRAME_CPP, TRACED_KD_CPP, group_gather_cpp
 from .rays import TraceFrame
 
 #: Columns of a group's row: the diffuse ambient term, the glossy one, and 1 where the
@@ -45,38 +45,22 @@ DomeRow = wp.types.vector(length=ROW_FLOATS, dtype=wp.float32)
 #: reflection (``mirror_share`` < 1 above ``GLOSSY_ROUGHNESS``), where ``shade_hit`` adds
 #: the term for every material (a smoother one adds it only without a mirror ray).
 GLOSSY_LANE_CPP = f"rough[j] > {float_literal(float(GLOSSY_ROUGHNESS))}"
-
-_FILL_CPP = lane_fill_cpp(
-    *(f"wh_at(gb.{name}, y, x)" for name in ("position", "normal", "albedo", "specular", "optics", "material_id"))
-)
+#: A lane's ``hit``: it looks the glossy lobe up.
+_GLOSSY_HIT_CPP = f"""
+        hit[j] = glossy && inside && wh_at(gb.triangle_id, y, x) >= 0 && {GLOSSY_LANE_CPP};"""
 
 _GROUP_CPP = (
     CHUNK_CPP
     + cpp("diffuse_albedo", "env_brdf", "ambient_irradiance", "ambient_diffuse", "prefiltered_radiance")
     + WH_AT_CPP
+    + GROUP_FRAME_CPP
     + f"""
-const auto& gb = tf.gb;
-const int width = tf.cam.width;
-const int pixels = width * tf.cam.height;
-const bool dome = scene.environment.enabled != 0;
-const bool traced = tf.params.max_depth > 0;
-const wp::vec3 eye = tf.cam.origin;
 wp::mat_t<{ITEM_GROUP}, {ROW_FLOATS}, float> out;
 if (!traced) return out;  // (at max depth 0 ``shade_hit`` shades the primary point as the raster does)
 {LANE_ARRAYS_CPP}{DOME_LANES_CPP}
 const int end = stop - first < {ITEM_GROUP} ? stop : first + {ITEM_GROUP};  // (never more rows than ``out`` has)
 for (int xs = first; xs < end; xs += CHUNK) {{
-    const int n = end - xs < CHUNK ? end - xs : CHUNK;
-    for (int j = 0; j < n; ++j) {{
-        // (an entry outside the image reads pixel 0: its values are not used)
-        const int listed = tf.pixels.data[xs + j];
-        const bool inside = listed >= 0 && listed < pixels;
-        const int pixel = inside ? listed : 0;
-        const int y = pixel / width;
-        const int x = pixel - y * width;
-{_FILL_CPP}
-        hit[j] = glossy && inside && wh_at(gb.triangle_id, y, x) >= 0 && {GLOSSY_LANE_CPP};
-    }}
+    const int n = end - xs < CHUNK ? end - xs : CHUNK;{group_gather_cpp(_GLOSSY_HIT_CPP)}
 {view_cpp(TRACED_KD_CPP)}
     if (uniform_dome) {{  // (the same irradiance and radiance for every lane)
         for (int j = 0; j < n; ++j) {{

@@ -42,37 +42,50 @@ _SHADOWED_SUM_CPP = """
             dr[j] = d[0]; dg[j] = d[1]; db[j] = d[2];
         }"""
 
-#: A lane's G-buffer channels, read at its pixel (x, y).
-_FILL_CPP = lane_fill_cpp(
-    *(f"wh_at(gb.{name}, y, x)" for name in ("position", "normal", "albedo", "specular", "optics", "material_id"))
-)
-
-_GROUP_CPP = (
-    CHUNK_CPP
-    + cpp("light_sample", "light_response", "diffuse_albedo")
-    + WH_AT_CPP
-    + f"""
+#: A group function's frame (``tf`` its ``TraceFrame``): the G-buffer, the image's size,
+#: whether there is a dome, whether paths go past the primary point, the eye.
+GROUP_FRAME_CPP = """
 const auto& gb = tf.gb;
 const int width = tf.cam.width;
 const int pixels = width * tf.cam.height;
 const bool dome = scene.environment.enabled != 0;
 const bool traced = tf.params.max_depth > 0;
 const wp::vec3 eye = tf.cam.origin;
+"""
+
+
+def group_gather_cpp(lane: str = "") -> str:
+    """C++ of a group function's step (1): for each lane ``j`` of the chunk from list
+    item ``xs``, its pixel (``inside``: in the image; an entry outside reads pixel 0, whose
+    values are not used), its G-buffer channels into the lane arrays, then the statements
+    ``lane`` (given ``inside``, ``x`` and ``y``)."""
+    fill = lane_fill_cpp(
+        *(f"wh_at(gb.{name}, y, x)" for name in ("position", "normal", "albedo", "specular", "optics", "material_id"))
+    )
+    return f"""
+    for (int j = 0; j < n; ++j) {{
+        const int listed = tf.pixels.data[xs + j];
+        const bool inside = listed >= 0 && listed < pixels;
+        const int pixel = inside ? listed : 0;
+        const int y = pixel / width;
+        const int x = pixel - y * width;
+{fill}{lane}
+    }}"""
+
+
+_GROUP_CPP = (
+    CHUNK_CPP
+    + cpp("light_sample", "light_response", "diffuse_albedo")
+    + WH_AT_CPP
+    + GROUP_FRAME_CPP
+    + f"""
 const int lights_begin = 0;
 const int lights_end = scene.light_count;
 wp::mat_t<{ITEM_GROUP}, 3, float> out;
 {LANE_ARRAYS_CPP}
 const int end = stop - first < {ITEM_GROUP} ? stop : first + {ITEM_GROUP};  // (never more rows than ``out`` has)
 for (int xs = first; xs < end; xs += CHUNK) {{
-    const int n = end - xs < CHUNK ? end - xs : CHUNK;
-    for (int j = 0; j < n; ++j) {{
-        // (an entry outside the image reads pixel 0: its value is not used)
-        const int listed = tf.pixels.data[xs + j];
-        const int pixel = listed < 0 || listed >= pixels ? 0 : listed;
-        const int y = pixel / width;
-        const int x = pixel - y * width;
-{_FILL_CPP}
-    }}
+    const int n = end - xs < CHUNK ? end - xs : CHUNK;{group_gather_cpp()}
 {view_cpp(TRACED_KD_CPP)}{light_loop_cpp(_SHADOWED_SUM_CPP)}
     for (int j = 0; j < n; ++j) {{
         out.data[xs - first + j][0] = dr[j]; out.data[xs - first + j][1] = dg[j]; out.data[xs - first + j][2] = db[j];

@@ -219,6 +219,51 @@ def test_a_pass_packs_its_arguments_once_per_thread(
     assert all(calls) != is_cuda  # the CPU's bands record; CUDA's one launch does not
 
 
+@wp.struct
+class _Marks:
+    out: wp.array(dtype=wp.int32)
+    mark: wp.vec2i
+
+
+@wp.kernel
+def _mark_through_struct(marks: _Marks, scale: int, start: int, step: int):
+    marks.out[start + wp.tid() * step] = marks.mark[0] * scale + marks.mark[1]
+
+
+def test_a_kernel_is_packed_again_only_when_its_inputs_change(monkeypatch: pytest.MonkeyPatch) -> None:
+    """On the native band threads a pass given what the pass before gave the same kernel
+    reuses its packed blocks; a struct's field changed in place, another array in it or
+    another number packs again, and every pass marks what its inputs say."""
+    if not band_pool.layout_matches():
+        pytest.skip("no native band threads on this platform")
+    count = 3000
+    calls = _counting_launches(monkeypatch, _mark_through_struct)
+    a = wp.zeros(count, dtype=wp.int32, device="cpu")
+    b = wp.zeros(count, dtype=wp.int32, device="cpu")
+    marks = _Marks()
+    marks.out = a
+    marks.mark = wp.vec2i(1, 0)
+    with Launcher("cpu", 2) as launcher:
+        assert launcher.native_bands
+
+        def run(scale: int, expect: wp.array, value: int, packed: bool) -> None:
+            before = len(calls)
+            launcher.launch_items(_mark_through_struct, count, [marks, scale])
+            assert (len(calls) > before) == packed
+            np.testing.assert_array_equal(expect.numpy(), np.full(count, value, np.int32))
+
+        run(1, a, 1, True)
+        run(1, a, 1, False)  # the same inputs: the blocks as they were
+        marks.mark = wp.vec2i(2, 0)  # a field changed in place
+        run(1, a, 2, True)
+        run(3, a, 6, True)  # another number
+        marks.out = b  # another array in the struct
+        run(3, b, 6, True)
+        run(3, b, 6, False)
+        marks.mark = wp.vec2i(2, 5)  # a nested value (the vector's second lane)
+        run(3, b, 11, True)
+
+
 def test_band_launch_takes_each_threads_own_inputs(device: str) -> None:
     """Inputs given per thread slot reach the bands that thread runs, and only those;
     a second pass over another array packs its own arguments (nothing from the first)."""

@@ -413,6 +413,37 @@ class PackedKernel:
         return ctypes.addressof(self.args)
 
 
+def _value_fingerprint(value: Any) -> Any:
+    """What a packed argument block takes from ``value``: an array's data pointer, shape,
+    strides and type; a Warp struct's bytes (its ctypes record, which holds its arrays'
+    pointers and shapes and its nested structs); a number's type and value; a vector's
+    bytes.  None for anything else (such inputs are packed every time)."""
+    if isinstance(value, wp.array):
+        return ("array", value.ptr, value.shape, value.strides, value.dtype)
+    record = value.__dict__.get("_ctype") if hasattr(value, "__dict__") else None
+    if record is not None:
+        return ("struct", type(value), bytes(record))
+    if isinstance(value, (bool, int, float, np.number)):
+        return (type(value), value)
+    if wp.types.type_is_scalar(type(value)):  # (a Warp scalar: wp.uint64(id), ...)
+        return (type(value), value.value)
+    if isinstance(value, ctypes.Array):
+        return (type(value), bytes(value))
+    return None
+
+
+def input_fingerprint(inputs: Sequence[Any]) -> tuple | None:
+    """A key that changes whenever packing ``inputs`` would give other bytes (None where
+    an input is of a kind ``_value_fingerprint`` does not know)."""
+    parts = []
+    for value in inputs:
+        part = _value_fingerprint(value)
+        if part is None:
+            return None
+        parts.append(part)
+    return tuple(parts)
+
+
 class BandPool:
     """``threads - 1`` helper threads in native loops, and the board they share; the
     calling thread is thread 0.  ``run`` posts a pass and takes part in it."""

@@ -270,7 +270,8 @@ class Launcher:
         self.profile: LaunchProfile | None = None
 
     def close(self) -> None:
-        """Stop the worker threads."""
+        """Stop the worker threads (and let go of the arrays the kept blocks point to)."""
+        self._packed.clear()
         if self._pool is not None:
             self._pool.shutdown(wait=True)
             self._pool = None

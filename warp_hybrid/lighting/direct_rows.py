@@ -21,7 +21,8 @@ background) lane by lane; then ``wh_surface_radiance`` with the split-sum
 ``wh_env_brdf`` across pixels again.  The same lambdas as the scalar functions, so the same arithmetic; in
 ``direct_span`` background pixels get a value the caller ignores.  The loop's pieces
 (the lane arrays, a lane's fill, steps (2) and (3) with their diffuse colour and sum
-as parameters) also build the tracer's primary points' terms (``trace/primary_group.py``).
+as parameters) also build the tracer's primary direct light (``trace/primary_light.py``),
+and step (4)'s dome lookups its primary points' dome terms (``trace/primary_dome.py``).
 """
 
 from __future__ import annotations
@@ -313,7 +314,7 @@ const wp::vec3 up(0.0f, 0.0f, 1.0f);  // (any direction)
 const wp::vec3 e_free = uniform_dome ? wh_ambient_irradiance(env, amb, up, true) : wp::vec3(0.0f);
 const wp::vec3 sky = uniform_dome ? wh_environment_radiance(env, scene.textures, scene.texels, up) : wp::vec3(0.0f);
 float ir[CHUNK], ig[CHUNK], ib[CHUNK], sr[CHUNK], sg[CHUNK], sb[CHUNK];
-float tr[CHUNK], tg[CHUNK], tb[CHUNK], ox[CHUNK], oy[CHUNK], oz[CHUNK], ux[CHUNK], uy[CHUNK], bx[CHUNK], by[CHUNK];
+float tr[CHUNK], tg[CHUNK], tb[CHUNK], ox[CHUNK], oy[CHUNK], oz[CHUNK], ux[CHUNK], uy[CHUNK];
 bool hit[CHUNK], above_top[CHUNK], two_levels[CHUNK], glass[CHUNK];
 int level[CHUNK];
 float keep[CHUNK], add_weight[CHUNK];

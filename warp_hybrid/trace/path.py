@@ -209,7 +209,7 @@ if ITEM_GROUP % PACKET != 0:
     raise ValueError(f"a launch item's group ({ITEM_GROUP}) must be whole packets of {PACKET}")
 _start_floats = wp.types.vector(length=_START_FLOATS, dtype=wp.float32)
 _group_starts = wp.types.matrix(shape=(ITEM_GROUP, _START_FLOATS), dtype=wp.float32)
-#: A group's first hits (rows as ``wide_closest_packet``'s) and which of them are found.
+#: A packet's ray origins or directions, and its rays' lengths (0: no ray in the lane).
 _packet_vec3s = wp.types.matrix(shape=(PACKET, 3), dtype=wp.float32)
 _packet_floats = wp.types.vector(length=PACKET, dtype=wp.float32)
 

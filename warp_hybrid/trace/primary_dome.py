@@ -10,7 +10,7 @@ alone was about a fifth of the path kernel (its floor and rough spheres). Here t
 deferred pass's row-loop pieces (``lighting/direct_rows.py``: ``dome_terms_cpp``, the
 same lambdas, the same bits as the scalar lookups) run over the group's pixels, gathered
 through the pixel list: the arithmetic across lanes, only the texel loads lane by lane,
-and those only where the glossy term is likely to be added (``GLOSSY_LANE``: the mirror
+and those only where the glossy term is likely to be added (``GLOSSY_LANE_CPP``: the mirror
 ray carries less than the whole reflection); ``shade_hit`` looks up the others itself
 where it needs them (column ``HAS_GLOSSY`` says which lanes have it).
 """

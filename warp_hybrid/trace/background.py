@@ -19,6 +19,7 @@ import warp as wp
 
 from ..core.camera import CAMERA_RAY_CPP
 from ..core.native_rows import WH_AT_CPP
+from ..core.pixel_list import listed_pixel_cpp
 from ..core.scene_gpu import SceneGPU
 from ..lighting.native_math import cpp
 from ..parallel import ITEM_GROUP
@@ -88,11 +89,7 @@ float sx[G], sy[G];
 bool background[G];
 int count = 0;
 for (int j = 0; j < n; ++j) {{
-    const int listed = tf.pixels.data[first + j];
-    const bool inside = listed >= 0 && listed < pixels;
-    const int pixel = inside ? listed : 0;
-    const int y = pixel / width;
-    const int x = pixel - y * width;
+    {listed_pixel_cpp("tf.pixels.data[first + j]")}
     background[j] = inside && wh_at(tf.gb.triangle_id, y, x) < 0;
     count += background[j] ? 1 : 0;
     sx[j] = wp::add((float)x, cam.sample[0]);

@@ -19,6 +19,7 @@ from __future__ import annotations
 import warp as wp
 
 from ..core.native_rows import CHUNK_CPP, WH_AT_CPP
+from ..core.pixel_list import listed_pixel_cpp
 from ..core.scene_gpu import FLAG_TRANSMISSIVE, SceneGPU
 from ..lighting.direct_rows import LANE_ARRAYS_CPP, RASTER_KD_CPP, lane_fill_cpp, light_loop_cpp, view_cpp
 from ..lighting.native_math import cpp
@@ -64,11 +65,7 @@ def group_gather_cpp(lane: str = "") -> str:
     )
     return f"""
     for (int j = 0; j < n; ++j) {{
-        const int listed = tf.pixels.data[xs + j];
-        const bool inside = listed >= 0 && listed < pixels;
-        const int pixel = inside ? listed : 0;
-        const int y = pixel / width;
-        const int x = pixel - y * width;
+        {listed_pixel_cpp("tf.pixels.data[xs + j]")}
 {fill}{lane}
     }}"""
 

@@ -25,8 +25,9 @@ from ..lighting.native_math import cpp
 from ..parallel import ITEM_GROUP
 from .rays import TraceFrame
 
-#: One launch item's background radiance: row ``k`` for its ``k``-th item.
-GroupBackground = wp.types.matrix(shape=(ITEM_GROUP, 3), dtype=wp.float32)
+#: One launch item's dome radiance (along its background's camera rays, or its first rays): row
+#: ``k`` for its ``k``-th item.
+GroupRadiance = wp.types.matrix(shape=(ITEM_GROUP, 3), dtype=wp.float32)
 #: One launch item's first rays' directions (row ``k``: its ``k``-th item's), their packet
 #: query's answers (``wide_bvh.hit_from_row``'s rows: column 7 is 1 for a hit) and which
 #: items' first rays were queried.
@@ -100,7 +101,7 @@ for (int j = 0; j < n; ++j) {{
 
 
 @wp.func_native(_GROUP_CPP)
-def group_background(scene: SceneGPU, tf: TraceFrame, first: int, stop: int) -> GroupBackground:
+def group_background(scene: SceneGPU, tf: TraceFrame, first: int, stop: int) -> GroupRadiance:
     """Row ``k``: where pixel-list item ``first + k`` (``first <= first + k < stop``, at
     most ``ITEM_GROUP`` items) is a pixel that sees no surface, the dome's radiance along
     its camera ray (``environment_radiance(scene, pixel_ray_direction(tf.cam, x, y))``,
@@ -127,9 +128,7 @@ for (int j = 0; j < G; ++j) {{
 
 
 @wp.func_native(_SKY_CPP)
-def first_ray_sky(
-    scene: SceneGPU, directions: GroupDirections, hits: GroupHits, queried: GroupFlags
-) -> GroupBackground:
+def first_ray_sky(scene: SceneGPU, directions: GroupDirections, hits: GroupHits, queried: GroupFlags) -> GroupRadiance:
     """Row ``k``: where item ``k``'s first ray was queried (``queried[k]`` non-zero) and
     missed (``hits[k]``), the dome's radiance along ``directions[k]``
     (``environment_radiance``, bit for bit; black without a dome).  Other rows hold

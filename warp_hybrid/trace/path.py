@@ -62,7 +62,7 @@ from ..parallel import ITEM_GROUP
 from ..scene.device.environment import environment_radiance
 from ..scene.device.surface import SurfaceHit, is_cut_away, samples_textures, surface_at_grad
 from ..scene.device.wide_bvh import PACKET, WideHit, hit_from_row, wide_closest, wide_closest_packet
-from .background import GroupBackground, GroupDirections, GroupFlags, GroupHits, first_ray_sky, group_background
+from .background import GroupDirections, GroupFlags, GroupHits, GroupRadiance, first_ray_sky, group_background
 from .cone import cone_footprint
 from .occluders import OccluderGPU
 from .offset import hit_bound, offset_ray_origin
@@ -713,7 +713,7 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
             terms = GroupDome()
             if wp.static(ambient):
                 terms = primary_dome(scene, amb, tf, chunk, chunk_end, transparency, environment)
-            dome = GroupBackground()
+            dome = GroupRadiance()
             if wp.static(environment):
                 dome = group_background(scene, tf, chunk, chunk_end)
             if wp.static(wide and secondary):
@@ -751,7 +751,7 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
                             if packet_t[k] > 0.0:
                                 first_hits[p * PACKET + k] = found[k]
                                 given[p * PACKET + k] = 1
-                sky = GroupBackground()
+                sky = GroupRadiance()
                 if wp.static(environment):
                     sky = first_ray_sky(scene, first_directions, first_hits, given)
                 for item in range(chunk, chunk_end):

@@ -56,8 +56,9 @@ def light_set(kind: str) -> list[Light]:
 def gbuffer_under_rect(device: str, rng: np.random.Generator, width: int, height: int) -> GBuffer:
     """Points below the rect light; row 0 faces it (the rectangle above every horizon),
     row 1 faces sideways under it (the horizon cuts it at every pixel), the other rows
-    have random normals (a mix); random colours, roughness 0.15-1, every third pixel
-    glass (material 1) but in row 0, every pixel on triangle 0."""
+    have random normals (a mix); random colours, roughness 0.15-1 (in row 0 in runs of
+    five pixels), every third pixel glass (material 1) but in row 0, every pixel on
+    triangle 0."""
     h, w = height, width
     gb = GBuffer(w, h, device)
     pos = np.zeros((h, w, 3), np.float32)
@@ -75,6 +76,7 @@ def gbuffer_under_rect(device: str, rng: np.random.Generator, width: int, height
     gb.specular.assign(rng.uniform(0.0, 1.0, (h, w, 3)).astype(np.float32))
     optics = np.zeros((h, w), dtype=gb.optics.numpy().dtype)
     optics["roughness"] = rng.uniform(0.15, 1.0, (h, w))
+    optics["roughness"][0] = np.repeat(rng.uniform(0.15, 1.0, -(-w // 5)), 5)[:w]  # (runs, as a material's pixels)
     optics["opacity"] = rng.uniform(0.0, 1.0, (h, w))
     optics["ior"] = rng.uniform(1.2, 2.0, (h, w))
     gb.optics.assign(optics)

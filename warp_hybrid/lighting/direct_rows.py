@@ -258,9 +258,21 @@ def dome_terms_cpp(raster: bool) -> str:
         const wp::vec3 v(vx[j], vy[j], vz[j]);{uv}
     }}"""
     return f"""{head}
+    // (the lobe's level of detail once per run of lanes with one roughness: a row's pixels
+    // mostly share their material's, and its log2 is a library call the loop below would
+    // make for every lane; equal roughness gives the same bits, -0 included, as the level
+    // reads its square)
+    float run_roughness = 0.0f, run_lod = 0.0f;
+    for (int j = 0; j < n; ++j) {{
+        if (j == 0 || !(rough[j] == run_roughness)) {{
+            run_roughness = rough[j];
+            run_lod = wh_prefilter_lod(amb, run_roughness);
+        }}
+        lods[j] = run_lod;
+    }}
     for (int j = 0; j < n; ++j) {{
         const wp::vec2 uv(ux[j], uy[j]);
-        const float lod = wh_prefilter_lod(amb, rough[j]);
+        const float lod = lods[j];
         const bool lobe = hit[j] && amb.levels > 0;
         const bool past_top = lobe && lod >= top;
         const int l0 = (int)wp::floor(wp::min(lod, top));  // (lod < top where it is read)
@@ -317,7 +329,7 @@ float ir[CHUNK], ig[CHUNK], ib[CHUNK], sr[CHUNK], sg[CHUNK], sb[CHUNK];
 float tr[CHUNK], tg[CHUNK], tb[CHUNK], ox[CHUNK], oy[CHUNK], oz[CHUNK], ux[CHUNK], uy[CHUNK];
 bool hit[CHUNK], above_top[CHUNK], two_levels[CHUNK], glass[CHUNK];
 int level[CHUNK];
-float keep[CHUNK], add_weight[CHUNK];
+float keep[CHUNK], add_weight[CHUNK], lods[CHUNK];
 """
     + _FETCH_ARRAYS_CPP
     + """

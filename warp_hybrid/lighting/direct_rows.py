@@ -373,12 +373,7 @@ _RADIANCE_CPP = f"""
             cr[j] = hit[j] ? c[0] : s[0]; cg[j] = hit[j] ? c[1] : s[1]; cb[j] = hit[j] ? c[2] : s[2];
         }}
     }};
-    if (surface_lanes == 0) {{  // (the background's radiance alone)
-        for (int j = 0; j < n; ++j) {{
-            const wp::vec3 s = uniform_dome ? sky : wp::vec3(sr[j], sg[j], sb[j]);
-            cr[j] = s[0]; cg[j] = s[1]; cb[j] = s[2];
-        }}
-    }} else if (glass_lanes > 0) {{
+    if (glass_lanes > 0) {{
         if (uniform_dome) radiance(true, true); else radiance(false, true);
     }} else {{
         if (uniform_dome) radiance(true, false); else radiance(false, false);
@@ -386,6 +381,32 @@ _RADIANCE_CPP = f"""
     for (int j = 0; j < n; ++j) out[xs + j] = wp::vec3(cr[j], cg[j], cb[j]);
 """
 
+# A chunk of background pixels alone (most of a row that sees the sky) takes only the
+# dome along each camera ray, the arithmetic ``dome_terms_cpp`` and ``_RADIANCE_CPP`` give a
+# lane that sees no surface (its lobe level 0, the dome's own texture), without the
+# G-buffer's reads, the lights, the irradiance and the second level's footprint.
+_BACKGROUND_CHUNK_CPP = f"""
+    int surface_lanes = 0;
+    for (int j = 0; j < n; ++j) surface_lanes += triangle[xs + j] >= 0 ? 1 : 0;
+    if (surface_lanes == 0) {{
+        if (uniform_dome) {{
+            for (int j = 0; j < n; ++j) out[xs + j] = sky;
+            continue;
+        }}
+        for (int j = 0; j < n; ++j) {{
+            const wp::vec3 ray = wh_pixel_ray(wp::add((float)(xs + j), cam.sample[0]), wp::add((float)y, cam.sample[1]));
+            const wp::vec2 uv = wh_environment_uv(wp::mul(env.world_to_light, ray));
+            wh_latlong_footprint(dome_offset, dome_width, dome_height, uv, fa00[j], fa01[j], fa10[j], fa11[j], fax[j],
+                                 fay[j]);
+        }}
+{_fetch_cpp("fa", "textured", "true")}
+        for (int j = 0; j < n; ++j) {{
+            const wp::vec3 a(fac[0][j], fac[1][j], fac[2][j]);
+            const wp::vec3 on_dome = textured ? wh_dome_scaled(env, *dome_texture, a) : env.color;
+            out[xs + j] = wh_select(dome, on_dome, wp::vec3(0.0f));
+        }}
+        continue;
+    }}"""
 
 # The camera ray through image point (px, py), as ``camera.camera_ray`` (defined before
 # the loop's lane arrays, whose names it would hide).
@@ -419,12 +440,7 @@ float er[CHUNK], eg[CHUNK], eb[CHUNK];"""
         else ""
     )
     if lit:
-        # (a chunk of background pixels alone, ``surface_lanes`` 0, takes no light)
-        shade = f"""{view_cpp(RASTER_KD_CPP)}
-    int surface_lanes = 0;
-    for (int j = 0; j < n; ++j) surface_lanes += hit[j] ? 1 : 0;
-    if (surface_lanes > 0) {{{light_loop_cpp(_UNSHADOWED_SUM_CPP)}    }}
-{_RADIANCE_CPP}"""
+        shade = f"""{view_cpp(RASTER_KD_CPP)}{light_loop_cpp(_UNSHADOWED_SUM_CPP)}{_RADIANCE_CPP}"""
     else:
         shade = _LIGHTS_CPP + "    for (int j = 0; j < n; ++j) out[xs + j] = wp::vec3(dr[j], dg[j], db[j]);\n"
     return (
@@ -448,7 +464,7 @@ const bool dome = scene.environment.enabled != 0;
 const wp::vec3 eye = cam.origin;
 {LANE_ARRAYS_CPP}{lit_rows}
 for (int xs = x0; xs < x1; xs += CHUNK) {{
-    const int n = x1 - xs < CHUNK ? x1 - xs : CHUNK;
+    const int n = x1 - xs < CHUNK ? x1 - xs : CHUNK;{_BACKGROUND_CHUNK_CPP if lit else ""}
     for (int j = 0; j < n; ++j) {{
         const int x = xs + j;
 {lane_fill_cpp("position[x]", "normal[x]", "albedo[x]", "specular[x]", "optics[x]", "material[x]")}{lit_gather}

@@ -47,6 +47,9 @@ SEARCH_STEP_PX = (1.0, 1.0, 1.0, 1.0, 1.0, 1.5, 2.0, 2.0, 2.0, 2.0, 4.0, 8.0)
 #: Each search tap's distance from the first (``SEARCH_STEP_PX``'s running sums past the
 #: first step): multiples of 0.5, so a tap's position is exact however it is summed.
 SEARCH_OFFSETS_PX = tuple(float(v) for v in itertools.accumulate(SEARCH_STEP_PX[1:], initial=0.0))
+#: How many of each end's search taps are read first: a walk that departs among them
+#: (most do) reads no more.
+FIRST_SEARCH_TAPS = 4
 #: How far (rows or columns) FXAA reads from the pixel it writes: the search's last
 #: bilinear tap, half a pixel past its full length (the 3x3 test and the final colour
 #: tap stay within 1).  A pixel's output changes only if its input changed this close.
@@ -156,10 +159,12 @@ def fxaa_edge_pixels(
 #: C++: steps 2-4 (module docstring) for the edge pixels a row's contrast test listed,
 #: ``CHUNK`` of them at a time: the orientation, the sub-pixel estimate and the final
 #: colour tap in loops across the chunk's pixels (the compiler vectorises them; the taps
-#: are gathers), the searches pixel by pixel, each across its taps: all twelve taps of both
-#: ends at once (their positions, ``SEARCH_OFFSETS_PX`` from the first, do not depend on
-#: the lumas), then each end's first departing one; walked tap by tap, each read waited on
-#: the last one's test.  A tap read past where its end stops changes nothing.
+#: are gathers), the searches pixel by pixel, each across its taps: the first
+#: ``FIRST_SEARCH_TAPS`` taps of both ends at once (their positions, ``SEARCH_OFFSETS_PX``
+#: from the first, do not depend on the lumas), then each end's first departing one, and
+#: only where an end has none among them the rest of the taps likewise; walked tap by tap,
+#: each read waited on the last one's test.  A tap read past where its end stops changes
+#: nothing.
 #: One Warp operation a call, so the compiler fuses nothing and every pixel gets the
 #: scalar arithmetic; a bilinear tap of weight exactly 0 adds 0 to a finite luma or code,
 #: so taking every tap changes no bit against skipping it.
@@ -170,6 +175,7 @@ _EDGE_SPAN_CPP = (
     + f"""
 constexpr float INV_255 = {float_literal(1.0 / 255.0)};  // (float32, as Warp rounds the constant)
 constexpr int SEARCH_TAPS = {len(SEARCH_OFFSETS_PX)};
+constexpr int FIRST_TAPS = {FIRST_SEARCH_TAPS};
 static const float search_offsets[] = {{{", ".join(float_literal(v) for v in SEARCH_OFFSETS_PX)}}};
 const int* list = {row_cpp("edges", "y", "int")} + x0;
 wp::uint8* dst = {row_cpp("out", "y", "wp::uint8", const=False)};
@@ -248,23 +254,36 @@ for (int s0 = 0; s0 < n; s0 += CHUNK) {{
         sub[j] = wp::mul(wp::mul(sub2, sub2), {float_literal(SUBPIX)});
     }}
     // step 3: each end walks outward until its luma departs from the edge's mean.  Where a
-    // walk's taps lie does not depend on the lumas, only where it stops does: every tap of
-    // both ends is read at once (across taps: no chain of dependent reads), then each end
-    // stops at its first departing tap (or its last)
+    // walk's taps lie does not depend on the lumas, only where it stops does: the taps of
+    // both ends are read at once (across taps: no chain of dependent reads), the first few
+    // and, where an end walks past them, the rest; each end stops at its first departing
+    // tap (or its last)
     for (int j = 0; j < m; ++j) {{
         const float gj = grad[j], aj = avg[j], sx = ox[j], sy = oy[j];
         const float x1 = p1x[j], y1 = p1y[j], x2 = p2x[j], y2 = p2y[j];
         float e1s[SEARCH_TAPS], e2s[SEARCH_TAPS];
-        #pragma clang loop vectorize(enable)
-        for (int i = 0; i < SEARCH_TAPS; ++i) {{
-            const float dx = wp::mul(sx, search_offsets[i]), dy = wp::mul(sy, search_offsets[i]);
-            e1s[i] = wp::sub(bilinear_luma(wp::sub(x1, dx), wp::sub(y1, dy)), aj);
-            e2s[i] = wp::sub(bilinear_luma(wp::add(x2, dx), wp::add(y2, dy)), aj);
-        }}
-        int i1 = SEARCH_TAPS - 1, i2 = SEARCH_TAPS - 1;
-        for (int i = SEARCH_TAPS - 2; i >= 0; --i) {{
-            i1 = wp::abs(e1s[i]) >= gj ? i : i1;
-            i2 = wp::abs(e2s[i]) >= gj ? i : i2;
+        // taps begin .. end - 1 of both ends
+        auto read = [&](const int begin, const int end) WH_INLINE {{
+            #pragma clang loop vectorize(enable)
+            for (int i = begin; i < end; ++i) {{
+                const float dx = wp::mul(sx, search_offsets[i]), dy = wp::mul(sy, search_offsets[i]);
+                e1s[i] = wp::sub(bilinear_luma(wp::sub(x1, dx), wp::sub(y1, dy)), aj);
+                e2s[i] = wp::sub(bilinear_luma(wp::add(x2, dx), wp::add(y2, dy)), aj);
+            }}
+        }};
+        // the first departing tap of each end among taps begin .. end - 1 (end where none does)
+        auto stop = [&](const float* es, const int begin, const int end) WH_INLINE -> int {{
+            int at = end;
+            for (int i = end - 1; i >= begin; --i) at = wp::abs(es[i]) >= gj ? i : at;
+            return at;
+        }};
+        // (most walks end within the first taps: the others read the rest)
+        read(0, FIRST_TAPS);
+        int i1 = stop(e1s, 0, FIRST_TAPS), i2 = stop(e2s, 0, FIRST_TAPS);
+        if (i1 == FIRST_TAPS || i2 == FIRST_TAPS) {{
+            read(FIRST_TAPS, SEARCH_TAPS);
+            i1 = i1 < FIRST_TAPS ? i1 : stop(e1s, FIRST_TAPS, SEARCH_TAPS - 1);
+            i2 = i2 < FIRST_TAPS ? i2 : stop(e2s, FIRST_TAPS, SEARCH_TAPS - 1);
         }}
         p1x[j] = wp::sub(x1, wp::mul(sx, search_offsets[i1])); p1y[j] = wp::sub(y1, wp::mul(sy, search_offsets[i1]));
         p2x[j] = wp::add(x2, wp::mul(sx, search_offsets[i2])); p2y[j] = wp::add(y2, wp::mul(sy, search_offsets[i2]));

@@ -15,8 +15,8 @@ local types, which Warp resolves from evaluated annotations."""
 
 import warp as wp
 
-from ..core.constants import luma709
-from ..core.native_rows import CHUNK_CPP, row_cpp
+from ..core.constants import LUMA_709_CPP
+from ..core.native_rows import CHUNK_CPP, float_literal, row_cpp
 from .aa import LUMA_OF_CODES_CPP, fxaa_edge_pixels, fxaa_edge_span
 from .color import SRGB_QUANTIZE_CPP, Srgb8Encoder
 from .exposure import LOG_DELTA, Exposure, exposure_from_log_sum, pairwise_sum
@@ -24,12 +24,57 @@ from .tonemap import CHANNEL_CPP
 
 wp.set_module_options({"enable_backward": False})
 
-LOG_DELTA_WP = wp.constant(LOG_DELTA)
-FLOAT_MAX = wp.constant(3.4028234663852886e38)
+FLOAT_MAX = 3.4028234663852886e38
 
 MASK_NONE = "none"
 MASK_BOOL = "bool"
 MASK_ID = "id"
+
+
+#: C++ condition: the mask ``mask_row`` (or, without one, the luminance ``l``) selects pixel
+#: ``x`` (see ``_make_log_luminance_kernel``).
+_MASK_TAKES_CPP = {MASK_NONE: "l > 0.0f", MASK_BOOL: "mask_row[x]", MASK_ID: "mask_row[x] >= 0"}
+
+
+def _log_luminance_span_cpp(mask_kind: str) -> str:
+    """The C++ body of ``_make_log_luminance_kernel``'s span function: for pixels
+    ``x0 <= x < x1`` of row ``y``, a chunk at a time, the luminance and whether the pixel
+    counts across the chunk (a loop the compiler vectorises), then the logs of the
+    counted ones, summed in order; returns (sum, count).  The colour's rows must be
+    contiguous (``PostProcess`` checks)."""
+    mask_row = (
+        ""
+        if mask_kind == MASK_NONE
+        else f"const auto* mask_row = {row_cpp('mask', 'y', 'int' if mask_kind == MASK_ID else 'bool')};"
+    )
+    return (
+        CHUNK_CPP
+        + f"""
+const wp::vec3* row = {row_cpp("color", "y", "wp::vec3")};
+{mask_row}
+double total = 0.0;
+int count = 0;
+float lum[CHUNK];
+bool take[CHUNK];
+for (int xs = x0; xs < x1; xs += CHUNK) {{
+    const int n = x1 - xs < CHUNK ? x1 - xs : CHUNK;
+    for (int j = 0; j < n; ++j) {{
+        const int x = xs + j;
+        const wp::vec3 c = row[x];
+        const float l = {LUMA_709_CPP};
+        lum[j] = l;
+        take[j] = wp::abs(l) <= {float_literal(FLOAT_MAX)} && {_MASK_TAKES_CPP[mask_kind]};  // (finite, selected)
+    }}
+    for (int j = 0; j < n; ++j) {{
+        if (take[j]) {{
+            total = wp::add(total, (double)wp::log(wp::add({float_literal(LOG_DELTA)}, wp::max(lum[j], 0.0f))));
+            ++count;
+        }}
+    }}
+}}
+return wp::vec2d(total, (double)count);
+"""
+    )
 
 
 def _make_log_luminance_kernel(mask_kind: str) -> wp.Kernel:
@@ -38,8 +83,15 @@ def _make_log_luminance_kernel(mask_kind: str) -> wp.Kernel:
     "none" = Y > 0, "bool" = mask true, "id" = mask >= 0 (an id buffer, -1 = miss).
     Each launch item adds its pixels' sum and count to its row's (``atomic_add``), so
     ``row_sum`` and ``row_count`` must start at zero; on the CPU an item is the whole
-    row, summed in order."""
+    row, summed in order (a native row loop: ``_log_luminance_span_cpp``)."""
     mask_dtype = wp.int32 if mask_kind == MASK_ID else wp.bool
+
+    @wp.func_native(_log_luminance_span_cpp(mask_kind))
+    def span(
+        color: wp.array2d(dtype=wp.vec3), mask: wp.array2d(dtype=mask_dtype), y: int, x0: int, x1: int
+    ) -> wp.vec2d:
+        """Pixels ``x0 <= x < x1`` of row ``y``: their logs' sum and count."""
+        ...
 
     @wp.kernel
     def log_luminance_pixels(
@@ -53,23 +105,13 @@ def _make_log_luminance_kernel(mask_kind: str) -> wp.Kernel:
     ):
         r, c = wp.tid()
         y = row0 + r * row_step
-        total = wp.float64(0.0)
-        count = int(0)
-        for x in range(c * cols, wp.min(c * cols + cols, color.shape[1])):
-            lum = luma709(color[y, x])
-            take = wp.abs(lum) <= FLOAT_MAX  # finite (wp.isfinite is an out-of-line call)
-            if wp.static(mask_kind == MASK_NONE):
-                take = take and lum > 0.0
-            elif wp.static(mask_kind == MASK_BOOL):
-                take = take and mask[y, x]
-            else:
-                take = take and mask[y, x] >= 0
-            if take:
-                total += wp.float64(wp.log(LOG_DELTA_WP + wp.max(lum, 0.0)))
-                count += 1
-        if count > 0:
-            wp.atomic_add(row_sum, y, total)
-            wp.atomic_add(row_count, y, count)
+        first = c * cols
+        stop = wp.min(first + cols, color.shape[1])
+        if first < stop:
+            sums = span(color, mask, y, first, stop)
+            if sums[1] > wp.float64(0.0):
+                wp.atomic_add(row_sum, y, sums[0])
+                wp.atomic_add(row_count, y, int(sums[1]))
 
     return log_luminance_pixels
 

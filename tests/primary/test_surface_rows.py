@@ -80,15 +80,23 @@ def test_row_loop_writes_what_surface_at_grad_gives(device, threads):
     cam = make_camera_gpu(camera, W, H)
     loop = GBuffer(W, H, device)
     with Launcher(device, threads=threads) as launcher:
-        # a frame looking down at the floor first (surfaces everywhere), as a moving view
-        # leaves one: the frame after it must write the background's values itself
+        # the view, then a frame looking down at the floor (surfaces everywhere), as a
+        # moving view leaves one: the frame after it must write the background's values
+        # itself, also where the first frame had them; then the view again, whose
+        # background blocks hold their values already (the loop leaves them)
         down = make_camera_gpu(look_at_camera((0.0, 4.0, 0.0), (0.0, 0.0, -8.0), hfov_deg=70.0), W, H)
+        Rasterizer(launcher).render(ds, cam, loop, StageTimer())
         Rasterizer(launcher).render(ds, down, loop, StageTimer())
         assert loop.hit_mask().mean() > 0.8
         Rasterizer(launcher).render(ds, cam, loop, StageTimer())
+        Rasterizer(launcher).render(ds, cam, loop, StageTimer())
     hit = loop.hit_mask()
-    # whole chunks of background (rows above the panels): the loop's shortcut for them
+    # whole chunks of background (rows above the panels): the loop's shortcut for them,
+    # and on the CPU their blocks known to hold the background record
     assert (~hit[:, :64]).all(axis=1).any()
+    if device == "cpu":
+        blocks = loop.background_blocks.numpy()
+        np.testing.assert_array_equal(blocks[:, 0] == 1, (~hit[:, :64]).all(axis=1))
     materials = loop.channel_numpy("material_id")
     # every path is taken: background, the floor and each panel
     assert 0.05 < hit.mean() < 0.95

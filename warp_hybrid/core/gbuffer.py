@@ -22,6 +22,8 @@ from typing import Any
 import numpy as np
 import warp as wp
 
+from .native_rows import CHUNK_CPU
+
 
 @wp.struct
 class Optics:
@@ -77,7 +79,13 @@ GBufferRows = _kernel_struct("GBufferRows", 1, "Every channel as a flat row-majo
 
 
 class GBuffer:
-    """Device arrays of every channel, each (height, width); ``gbuffer.<channel>``."""
+    """Device arrays of every channel, each (height, width); ``gbuffer.<channel>``.
+
+    ``background_blocks`` ((height, ceil(width / CHUNK_CPU)) int32): per row, whether each
+    block of ``CHUNK_CPU`` pixels (from column 0) holds the background record, 1 where the
+    surface pass's row loop wrote it there, 0 where it wrote a surface or does not know
+    (``clear``); a block that sees no surface again is left as it is.  The channels are
+    the primary passes' to write: anything else that writes one must ``clear``."""
 
     def __init__(self, width: int, height: int, device: wp.context.Device | str) -> None:
         """Allocate a G-buffer of ``width`` x ``height`` on ``device``, cleared."""
@@ -86,6 +94,9 @@ class GBuffer:
         self.device = wp.get_device(device)
         shape = (self.height, self.width)
         self._arrays = {c.name: wp.empty(shape, dtype=c.dtype, device=self.device) for c in CHANNELS}
+        self.background_blocks = wp.zeros(
+            (self.height, -(-self.width // CHUNK_CPU)), dtype=wp.int32, device=self.device
+        )
         self._rows = GBufferRows()
         self._kernel_arrays = GBufferArrays()
         for name, array in self._arrays.items():
@@ -106,7 +117,9 @@ class GBuffer:
     def clear(self) -> None:
         """Write the background record into every pixel (each channel's ``background``).
         A new buffer starts so; the primary passes write every pixel of every frame
-        (the background's values where no surface is hit), so frames need no clear."""
+        (the background's values where no surface is hit), so frames need no clear.
+        ``background_blocks`` is zeroed (unknown)."""
+        self.background_blocks.zero_()
         for c in CHANNELS:
             array = self._arrays[c.name]
             if c.background == 0.0:

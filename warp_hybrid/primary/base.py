@@ -50,7 +50,11 @@ class PrimaryVisibility(RenderPass):
         self.find_hits(scene, camera, gbuffer, timer, rows)
         with timer.stage("surface"):
             self.launcher.launch_pixels(
-                kernels.surface_kernel, gbuffer.height, gbuffer.width, [scene.gpu, camera, gbuffer.rows()], rows=rows
+                kernels.surface_kernel,
+                gbuffer.height,
+                gbuffer.width,
+                [scene.gpu, camera, gbuffer.rows(), gbuffer.background_blocks],
+                rows=rows,
             )
 
     @abstractmethod

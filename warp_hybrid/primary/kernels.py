@@ -518,6 +518,8 @@ const float py = wp::add((float)y, cam.sample[1]);
 const size_t row = (size_t)y * (size_t)cam.width;
 const int* tris = gb.triangle_id.data + row;
 const wp::vec2* bary = gb.barycentric.data + row;
+// which of the row's blocks of CHUNK pixels hold the background record (``GBuffer.background_blocks``)
+int* const blocks = (int*)((char*)background_blocks.data + (size_t)y * background_blocks.strides[0]);
 {_CORNER_LANES_CPP}
 float u0[CHUNK], v0[CHUNK], u1[CHUNK], v1[CHUNK], u2[CHUNK], v2[CHUNK];
 float mx[CHUNK], my[CHUNK], mz[CHUNK], nx1[CHUNK], ny1[CHUNK], nz1[CHUNK], ox[CHUNK], oy[CHUNK], oz[CHUNK];
@@ -564,12 +566,21 @@ auto store_hit = [&](int j, int mid, const wp::vec3& albedo, const wp::vec3& spe
 }};
 for (; xs < x1; xs += CHUNK) {{
     const int n = x1 - xs < CHUNK ? x1 - xs : CHUNK;
-    // (a chunk of background pixels alone takes the background's values, nothing else)
+    // (a chunk of background pixels alone takes the background's values, nothing else; a
+    // chunk that is a whole block (on the CPU) reads and keeps its block's flag: one that
+    // holds the background record still is left as it is)
+    const bool whole = CHUNK > 1 && xs % CHUNK == 0 && (n == CHUNK || xs + n == cam.width);
     int hits = 0;
     for (int j = 0; j < n; ++j) hits += tris[xs + j] >= 0 ? 1 : 0;
     if (hits == 0) {{
+        if (whole && blocks[xs / CHUNK] != 0) continue;
         for (int j = 0; j < n; ++j) store_background(row + (size_t)(xs + j));
+        if (whole) blocks[xs / CHUNK] = 1;
         continue;
+    }}
+    if (CHUNK > 1) {{  // (the blocks the chunk overlaps hold a surface from here)
+        blocks[xs / CHUNK] = 0;
+        blocks[(xs + n - 1) / CHUNK] = 0;
     }}
     // (a run of pixels on one triangle fetches its corners once)
     for (int run = 0; run < n;) {{
@@ -716,29 +727,47 @@ return left;
 
 @wp.func_native(_SURFACE_SPAN_CPP)
 def _surface_span(
-    scene: SceneGPU, cam: CameraGPU, gb: GBufferRows, ddx: wp.vec3, ddy: wp.vec3, y: int, x0: int, x1: int
+    scene: SceneGPU,
+    cam: CameraGPU,
+    gb: GBufferRows,
+    background_blocks: wp.array2d(dtype=wp.int32),
+    ddx: wp.vec3,
+    ddy: wp.vec3,
+    y: int,
+    x0: int,
+    x1: int,
 ) -> int:
     """Every channel but the hit record of pixels ``x0 <= x < x1`` of row ``y``
     (``_SURFACE_SPAN_CPP``): pixel by pixel the same bits as ``_write_surface``, the
-    background's values (``gbuffer.BACKGROUND``) where no surface is hit; ``ddx``,
-    ``ddy``: the camera ray's steps (``hit_record.sample_steps``).  Returns how many
-    hit pixels it left for the scalar path (their material has a normal map)."""
+    background's values (``gbuffer.BACKGROUND``) where no surface is hit (kept where a
+    block of ``background_blocks`` says they are there already, and that flag kept);
+    ``ddx``, ``ddy``: the camera ray's steps (``hit_record.sample_steps``).  Returns how
+    many hit pixels it left for the scalar path (their material has a normal map)."""
     ...
 
 
 @wp.kernel
-def surface_kernel(scene: SceneGPU, cam: CameraGPU, gb: GBufferRows, row0: int, row_step: int, cols: int):
+def surface_kernel(
+    scene: SceneGPU,
+    cam: CameraGPU,
+    gb: GBufferRows,
+    background_blocks: wp.array2d(dtype=wp.int32),
+    row0: int,
+    row_step: int,
+    cols: int,
+):
     """Per row (a launch item's columns): the surface named by each pixel's hit record
     (whichever primary path wrote it) into the remaining G-buffer channels (the
-    background's values where the pixel sees no surface), in a native row loop
-    (``_surface_span``); the pixels it leaves (normal-mapped materials) one at a time."""
+    background's values where the pixel sees no surface; ``background_blocks``: the
+    G-buffer's ``background_blocks``), in a native row loop (``_surface_span``); the
+    pixels it leaves (normal-mapped materials) one at a time."""
     r, c = wp.tid()
     y = row0 + r * row_step
     first = c * cols
     stop = wp.min(first + cols, cam.width)
     if first < stop:
         steps = sample_steps(cam)
-        if _surface_span(scene, cam, gb, steps[0], steps[1], y, first, stop) > 0:
+        if _surface_span(scene, cam, gb, background_blocks, steps[0], steps[1], y, first, stop) > 0:
             for x in range(first, stop):
                 i = y * cam.width + x
                 tri = gb.triangle_id[i]

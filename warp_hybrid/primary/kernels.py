@@ -334,8 +334,9 @@ const wp::vec3 p2(cx[j], cy[j], cz[j]);
 # slices, (2) the corners of each pixel's triangle (a gather, none for an empty key),
 # (3) the camera ray and ``EXACT_HIT_CPP`` in a loop of plain arithmetic over the chunk
 # (no memory access but its own scratch, no branch: the compiler vectorises it across
-# pixels), (4) the hit record, or the background's for an empty key.  Every array
-# it writes is contiguous (``GBufferRows`` views whole buffers).
+# pixels), (4) the hit record, or the background's for an empty key (a chunk of empty
+# keys alone takes the background's and skips (2) and (3)).  Every array it writes is
+# contiguous (``GBufferRows`` views whole buffers).
 _RESOLVE_SPAN_CPP = (
     CHUNK_CPP
     + f"""
@@ -357,6 +358,19 @@ for (int xs = x0; xs < x1; xs += CHUNK) {{
         const wp::uint64* slice = (const wp::uint64*)((const char*)first + (size_t)s * keys.strides[0]);
         for (int j = 0; j < n; ++j) key[j] = wp::min(key[j], slice[xs + j]);
     }}
+    int* tri_out = gb.triangle_id.data + row + xs;
+    float* depth_out = gb.depth.data + row + xs;
+    wp::vec2* bary_out = gb.barycentric.data + row + xs;
+    int hits = 0;
+    for (int j = 0; j < n; ++j) hits += key[j] != empty ? 1 : 0;
+    if (hits == 0) {{  // (a chunk of background alone: its miss values, no corners or rays)
+        for (int j = 0; j < n; ++j) {{
+            tri_out[j] = miss_triangle;
+            depth_out[j] = miss_depth;
+            bary_out[j] = wp::vec2(miss_barycentric);
+        }}
+        continue;
+    }}
     for (int j = 0; j < n; ++j) {{
         wp::vec3 a(0.0f), b(0.0f), c(0.0f);
         if (key[j] != empty) {{
@@ -374,9 +388,6 @@ for (int xs = x0; xs < x1; xs += CHUNK) {{
         hit_u[j] = rt_bu;
         hit_v[j] = rt_bv;
     }}
-    int* tri_out = gb.triangle_id.data + row + xs;
-    float* depth_out = gb.depth.data + row + xs;
-    wp::vec2* bary_out = gb.barycentric.data + row + xs;
     for (int j = 0; j < n; ++j) {{
         const bool hit = key[j] != empty;
         tri_out[j] = hit ? (int)(key[j] & 0xFFFFFFFFull) : miss_triangle;

@@ -77,6 +77,8 @@ def test_auto_exposure_on_the_device_takes_every_mask_form(device):
             post.auto_exposure(color, hit[:, :10])
         with pytest.raises(ValueError, match="hit_mask"):
             post.auto_exposure(color, wp.zeros((12, 20), dtype=float, device=device))
+        with pytest.raises(ValueError, match="contiguous"):  # (the sums read whole rows)
+            post.auto_exposure(color[:, 1:], None)
 
 
 def _luma(img: np.ndarray) -> np.ndarray:

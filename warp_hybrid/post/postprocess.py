@@ -110,6 +110,10 @@ class PostProcess(RenderPass):
         h, w = int(color.shape[0]), int(color.shape[1])
         buffers = self._targets(h, w)
         kind, mask = self._mask(hit_mask, (h, w))
+        if not (color.is_contiguous and mask.is_contiguous):
+            raise ValueError(
+                "the metered colour and hit_mask must be contiguous (the sums read their rows as flat arrays)"
+            )
         buffers["row_sum"].zero_()
         buffers["row_count"].zero_()
         self.launcher.launch_pixels(

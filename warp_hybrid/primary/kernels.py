@@ -8,9 +8,12 @@
   patch of one mesh), computed again only when the points move.
 * ``coverage_kernel`` (one thread per cluster): a cluster whose box lies wholly outside
   one plane of the view frustum is skipped (its triangles would all fail the same
-  plane's trivial reject, so nothing changes but the cost); the others go triangle by
-  triangle through the trivial frustum rejects, clipping (``clipping.py``) and coverage
-  (``coverage.py``) into the per-thread key buffer.
+  plane's trivial reject, so nothing changes but the cost); on the CPU the others are
+  set up across the cluster's triangles and rasterized in native code
+  (``cover_batch.py``), which leaves the triangles that need clipping or an alpha test
+  to the Warp path: triangle by triangle through the trivial frustum rejects, clipping
+  (``clipping.py``) and coverage (``coverage.py``) into the per-thread key buffer (every
+  triangle on CUDA).
 * ``resolve_kernel`` (per pixel): the smallest key over the key slices names the
   nearest triangle; ``hit_record.exact_hit`` gives the pixel's hit record, in a native
   row loop vectorised across pixels (the same C++ statements as ``exact_hit`` and
@@ -30,10 +33,12 @@
   window (``trace.fovea``); a listed pixel that misses gets the background's hit record.
 
 The per-pixel kernels follow the launch layer's ``row0, row_step, cols`` convention
-(``parallel.Launcher.launch_pixels``) and write through ``GBufferRows``.  Every pixel is
-written every frame, so the G-buffer needs no clear first: the hit-finding kernels
-write the background's hit record where no surface is hit, the surface kernel the
-background's other channels there (``gbuffer.BACKGROUND``, the channel table's values).
+(``parallel.Launcher.launch_pixels``) and write through ``GBufferRows``.  Every pixel
+holds its record after every frame, so the G-buffer needs no clear first: the
+hit-finding kernels write the background's hit record where no surface is hit, the
+surface kernel the background's other channels there (``gbuffer.BACKGROUND``, the
+channel table's values), or keeps them where a block held them already
+(``GBuffer.background_blocks``).
 No back-face culling: the G-buffer must match the ray cast, which sees both sides.
 """
 
@@ -51,6 +56,7 @@ from ..scene.device.surface import SURFACE_CPP, UV_FOOTPRINT_CPP, is_cut_away, s
 from ..scene.device.wide_bvh import WideBVHGPU, WideHit, wide_closest
 from ..scene.model import Wrap
 from .clipping import ProjectedPoints, in_guard_band, project, raster_clipped, to_camera
+from .cover_batch import BATCH_TRIANGLES, cover_batch
 from .coverage import EMPTY_KEY, RasterTarget, raster_triangle
 from .hit_record import EXACT_HIT_CPP, exact_hit, pixel_footprint, sample_steps
 
@@ -59,7 +65,7 @@ wp.set_module_options({"enable_backward": False})
 # Ray-cast path: at most this many cut-away hits are stepped past per pixel.
 MAX_CUTOUT_LAYERS = wp.constant(32)
 # Triangles per raster cluster (a launch item of the coverage pass).
-CLUSTER_TRIANGLES = wp.constant(64)
+CLUSTER_TRIANGLES = wp.constant(BATCH_TRIANGLES)
 # A box corner counts as outside a frustum plane only beyond this relative margin, far
 # above float32 rounding, so a cluster is never culled where a triangle of it would
 # pass the per-triangle test by rounding.
@@ -221,8 +227,14 @@ def _cover_cluster(
     if _box_culled(cam, bounds[cluster, 0], bounds[cluster, 1]):
         return
     first = cluster * CLUSTER_TRIANGLES
-    for tri in range(first, wp.min(first + CLUSTER_TRIANGLES, triangles)):
-        _cover_triangle(scene, cam, pts, target, tri)
+    stop = wp.min(first + CLUSTER_TRIANGLES, triangles)
+    # (the cluster set up across its triangles in native code, on the CPU; the ones it
+    # leaves, one at a time)
+    left = cover_batch(scene, cam, pts, target, first, stop)
+    if left != wp.uint64(0):
+        for tri in range(first, stop):
+            if ((left >> wp.uint64(tri - first)) & wp.uint64(1)) != wp.uint64(0):
+                _cover_triangle(scene, cam, pts, target, tri)
 
 
 @wp.kernel

@@ -21,7 +21,6 @@ from warp_hybrid.primary.kernels import _cover_triangle
 from warp_hybrid.scene.authoring.builders import MeshInput, make_scene
 from warp_hybrid.scene.device import DeviceScene
 from warp_hybrid.scene.model import Camera, Material
-from warp_hybrid.timing import StageTimer
 
 wp.set_module_options({"enable_backward": False})
 

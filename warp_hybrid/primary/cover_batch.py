@@ -29,26 +29,21 @@ from .coverage import HALF_SUBPIXEL, MODE_DEPTH, NARROW_PX, SUBPIXEL, RasterTarg
 BATCH_TRIANGLES = 64
 
 
-def _literal(constant: object) -> object:
-    """The plain value of a Warp constant (a scalar type's ``value``, or the number)."""
-    return getattr(constant, "value", constant)
-
-
 _COVER_BATCH_CPP = f"""
 #if defined(__CUDA_ARCH__)
 // (on CUDA every triangle goes the Warp path, whose key updates are atomic)
-return stop - first >= 64 ? ~(uint64_t)0 : ((uint64_t)1 << (stop - first)) - 1;
+return stop - first >= {BATCH_TRIANGLES} ? ~(uint64_t)0 : ((uint64_t)1 << (stop - first)) - 1;
 #else
 constexpr int B = {BATCH_TRIANGLES};
-constexpr int64_t SUB = {int(_literal(SUBPIXEL))};
-constexpr int64_t HALF_SUB = {int(_literal(HALF_SUBPIXEL))};
+constexpr int64_t SUB = {int(SUBPIXEL)};
+constexpr int64_t HALF_SUB = {int(HALF_SUBPIXEL)};
 const int n = stop - first;
 const int* indices = scene.indices.data;
 const wp::vec3* camera = pts.camera.data;
 const wp::vec3* screen = pts.screen.data;
 const float near = cam.near, far = cam.far, tan_x = cam.tan_x, tan_y = cam.tan_y;
 const float half_w = wp::mul(0.5f, (float)cam.width), half_h = wp::mul(0.5f, (float)cam.height);
-const float guard = {float_literal(float(_literal(GUARD_PX)))};
+const float guard = {float_literal(GUARD_PX)};
 auto fixed = [&](const float v) -> int64_t {{ return (int64_t)wp::floor(wp::add(wp::mul(v, 256.0f), 0.5f)); }};
 const int64_t shift_x = fixed(wp::sub(0.5f, cam.sample[0]));
 const int64_t shift_y = fixed(wp::sub(0.5f, cam.sample[1]));
@@ -124,7 +119,7 @@ char* const keys = (char*)target.keys.data + (size_t)target.slot * target.keys.s
 for (int j = 0; j < n; ++j) {{
     if (!live[j]) continue;
     const int tri = first + j;
-    if ((scene.materials.data[scene.triangle_material.data[tri]].flags & {int(_literal(FLAG_CUTOUT))}) != 0) {{
+    if ((scene.materials.data[scene.triangle_material.data[tri]].flags & {int(FLAG_CUTOUT)}) != 0) {{
         left |= (uint64_t)1 << j;
         continue;
     }}
@@ -137,7 +132,7 @@ for (int j = 0; j < n; ++j) {{
     const float inv_za = wp::div(1.0f, za[j]), inv_zb = wp::div(1.0f, zb[j]), inv_zc = wp::div(1.0f, zc[j]);
     const float farea = (float)area[j];
     const float min_denom = wp::div(farea, far);
-    const bool wide = x1 - x0 >= {int(_literal(NARROW_PX))};
+    const bool wide = x1 - x0 >= {int(NARROW_PX)};
     const float span_max = (float)(x1 - x0 + 2);
     const float inv_sa = wide ? inv_step(step_a) : 0.0f;
     const float inv_sb = wide ? inv_step(step_b) : 0.0f;
@@ -168,7 +163,7 @@ for (int j = 0; j < n; ++j) {{
                                             wp::mul((float)wc, inv_zc));
                 if (denom >= min_denom) {{
                     uint64_t* key = (uint64_t*)(row + (size_t)(x0 + k) * target.keys.strides[2]);
-                    if (target.mode == {int(_literal(MODE_DEPTH))}) {{
+                    if (target.mode == {int(MODE_DEPTH)}) {{
                         const float z = wp::div(farea, denom);
                         union {{ float f; unsigned int u; }} bits;
                         bits.f = z;

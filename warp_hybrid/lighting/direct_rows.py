@@ -33,6 +33,7 @@ from ..core.camera import CAMERA_RAY_CPP, CameraGPU
 from ..core.gbuffer import GBufferArrays
 from ..core.native_rows import CHUNK_CPP, row_cpp
 from ..core.scene_gpu import FLAG_TRANSMISSIVE, AmbientGPU, SceneGPU
+from ..scene.device.environment import dome_along_lanes_cpp
 from .native_math import cpp
 
 #: (1) the lane arrays of a chunk: point, normal, view direction, albedo, diffuse colour,
@@ -382,28 +383,26 @@ _RADIANCE_CPP = f"""
 """
 
 # A chunk of background pixels alone (most of a row that sees the sky) takes only the
-# dome along each camera ray, the arithmetic ``dome_terms_cpp`` and ``_RADIANCE_CPP`` give a
-# lane that sees no surface (its lobe level 0, the dome's own texture), without the
-# G-buffer's reads, the lights, the irradiance and the second level's footprint.
+# dome along each camera ray (``environment.dome_along_lanes_cpp``, which the path kernel's
+# background uses too): the values ``dome_terms_cpp`` and ``_RADIANCE_CPP`` give a lane that
+# sees no surface (its lobe level 0, the dome's own texture), without the G-buffer's reads,
+# the lights, the irradiance and the second level's footprint.
+_BACKGROUND_DOME_CPP = dome_along_lanes_cpp(
+    "CHUNK",
+    "n",
+    "wh_pixel_ray(wp::add((float)(xs + j), cam.sample[0]), wp::add((float)y, cam.sample[1]))",
+    "true",
+    "out[xs + j] = wh_select(dome, c, wp::vec3(0.0f));",
+)
 _BACKGROUND_CHUNK_CPP = f"""
     int surface_lanes = 0;
     for (int j = 0; j < n; ++j) surface_lanes += triangle[xs + j] >= 0 ? 1 : 0;
     if (surface_lanes == 0) {{
         if (uniform_dome) {{
             for (int j = 0; j < n; ++j) out[xs + j] = sky;
-            continue;
-        }}
-        for (int j = 0; j < n; ++j) {{
-            const wp::vec3 ray = wh_pixel_ray(wp::add((float)(xs + j), cam.sample[0]), wp::add((float)y, cam.sample[1]));
-            const wp::vec2 uv = wh_environment_uv(wp::mul(env.world_to_light, ray));
-            wh_latlong_footprint(dome_offset, dome_width, dome_height, uv, fa00[j], fa01[j], fa10[j], fa11[j], fax[j],
-                                 fay[j]);
-        }}
-{_fetch_cpp("fa", "textured", "true")}
-        for (int j = 0; j < n; ++j) {{
-            const wp::vec3 a(fac[0][j], fac[1][j], fac[2][j]);
-            const wp::vec3 on_dome = textured ? wh_dome_scaled(env, *dome_texture, a) : env.color;
-            out[xs + j] = wh_select(dome, on_dome, wp::vec3(0.0f));
+        }} else if (!textured) {{
+            for (int j = 0; j < n; ++j) out[xs + j] = wh_select(dome, env.color, wp::vec3(0.0f));
+        }} else {{{_BACKGROUND_DOME_CPP}
         }}
         continue;
     }}"""

@@ -23,6 +23,7 @@ from ..core.pixel_list import listed_pixel_cpp
 from ..core.scene_gpu import SceneGPU
 from ..lighting.native_math import cpp
 from ..parallel import ITEM_GROUP
+from ..scene.device.environment import dome_along_lanes_cpp
 from .rays import TraceFrame
 
 #: One launch item's dome radiance (along its background's camera rays, or its first rays): row
@@ -41,7 +42,8 @@ def _dome_along_cpp(lanes: str, wanted: str, direction: str) -> str:
     condition on lane ``j``, ``count`` lanes in all) hold the dome's radiance along
     ``direction`` (a C++ expression of lane ``j``'s world direction, any length):
     ``environment_radiance``'s arithmetic, its uvs and footprints across all the lanes,
-    the texel loads only where wanted."""
+    the texel loads only where wanted (``environment.dome_along_lanes_cpp``)."""
+    store = "out.data[j][0] = c[0]; out.data[j][1] = c[1]; out.data[j][2] = c[2];"
     return f"""
 if (count == 0) return out;
 if (env.texture < 0) {{
@@ -49,23 +51,7 @@ if (env.texture < 0) {{
         out.data[j][0] = env.color[0]; out.data[j][1] = env.color[1]; out.data[j][2] = env.color[2];
     }}
     return out;
-}}
-const auto& tex = scene.textures.data[env.texture];
-const wp::mat33 to_dome = env.world_to_light;
-float fx[G], fy[G];
-int i00[G], i01[G], i10[G], i11[G];
-for (int j = 0; j < {lanes}; ++j) {{
-    const wp::vec3 d = wp::mul(to_dome, {direction});
-    wh_latlong_footprint(tex.offset, tex.width, tex.height, wh_environment_uv(d), i00[j], i01[j], i10[j], i11[j],
-                         fx[j], fy[j]);
-}}
-const wp::vec4* texels = scene.texels.data;
-for (int j = 0; j < {lanes}; ++j) {{
-    if (!({wanted})) continue;
-    const wp::vec4 t = wh_bilinear_blend(texels[i00[j]], texels[i01[j]], texels[i10[j]], texels[i11[j]], fx[j], fy[j]);
-    const wp::vec3 c = wh_dome_scaled(env, tex, wp::vec3(t[0], t[1], t[2]));
-    out.data[j][0] = c[0]; out.data[j][1] = c[1]; out.data[j][2] = c[2];
-}}
+}}{dome_along_lanes_cpp("G", lanes, direction, wanted, store)}
 return out;
 """
 

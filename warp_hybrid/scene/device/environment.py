@@ -227,6 +227,37 @@ auto wh_environment_radiance = [&](const auto& env, const auto& textures, const 
 ENVIRONMENT_CPP = LAMBDA_HEADER_CPP + ENVIRONMENT_LAMBDAS_CPP
 
 
+def dome_along_lanes_cpp(size: str, lanes: str, direction: str, wanted: str, store: str) -> str:
+    """C++ (a block, after ``ENVIRONMENT_LAMBDAS_CPP``, given ``scene`` and its dome ``env``,
+    which must have a texture): the dome's radiance along each lane's direction, lanes
+    ``0 <= j < lanes`` (at most ``size``, a C++ constant): ``direction`` (a C++ expression of
+    lane ``j``'s world direction, any length) to its lat-long uv and bilinear footprint
+    across the lanes, a loop of plain arithmetic the compiler vectorises; then, lane by
+    lane where ``wanted`` (a condition on ``j``), the texel loads, their blend and the
+    dome's scale into ``c``, and ``store`` (a statement given ``c`` and ``j``).  The
+    arithmetic of ``wh_dome_texture_radiance``, so the same bits."""
+    return f"""
+    {{
+        const auto& tex = scene.textures.data[env.texture];
+        const wp::mat33 to_dome = env.world_to_light;
+        float fx[{size}], fy[{size}];
+        int i00[{size}], i01[{size}], i10[{size}], i11[{size}];
+        for (int j = 0; j < {lanes}; ++j) {{
+            const wp::vec3 d = wp::mul(to_dome, {direction});
+            wh_latlong_footprint(tex.offset, tex.width, tex.height, wh_environment_uv(d), i00[j], i01[j], i10[j],
+                                 i11[j], fx[j], fy[j]);
+        }}
+        const wp::vec4* texels = scene.texels.data;
+        for (int j = 0; j < {lanes}; ++j) {{
+            if (!({wanted})) continue;
+            const wp::vec4 t = wh_bilinear_blend(texels[i00[j]], texels[i01[j]], texels[i10[j]], texels[i11[j]], fx[j],
+                                                 fy[j]);
+            const wp::vec3 c = wh_dome_scaled(env, tex, wp::vec3(t[0], t[1], t[2]));
+            {store}
+        }}
+    }}"""
+
+
 @wp.func_native(ENVIRONMENT_CPP + "return wh_fast_atan2(y, x);")
 def fast_atan2(y: float, x: float) -> float:
     """atan2(y, x) in float32 to about 2 ulp, with one division and no libm call

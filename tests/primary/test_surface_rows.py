@@ -14,15 +14,16 @@ from warp_hybrid.core.gbuffer import CHANNELS, GBuffer, GBufferRows
 from warp_hybrid.core.scene_gpu import SceneGPU
 from warp_hybrid.parallel import Launcher
 from warp_hybrid.primary import Rasterizer
-from warp_hybrid.primary.kernels import _write_surface
-from warp_hybrid.scene.authoring.builders import look_at_camera, make_scene, quad
+from warp_hybrid.primary.kernels import SHORT_RUN_PIXELS, _write_surface
+from warp_hybrid.scene.authoring.builders import look_at_camera, make_scene, quad, uv_sphere
 from warp_hybrid.scene.device import DeviceScene
 from warp_hybrid.scene.model import Material, TextureBinding, TextureImage, Wrap
 from warp_hybrid.timing import StageTimer
 
 wp.set_module_options({"enable_backward": False})
 
-#: 150 columns: two whole chunks of 64 pixels and a tail.
+#: 150 columns: two whole chunks of 64 pixels and a tail; a row's first pixel starts a
+#: cache line in every eighth row (150 x 12 bytes a row).
 W, H = 150, 60
 
 
@@ -39,7 +40,9 @@ def _scene():
     """A floor seen at a grazing angle (its texture minified, trilinear between levels,
     repeating 12 times) and, standing on it, panels whose materials take every path: a
     clamped texture, a mirrored one with a uv transform, a specular-workflow colour, a
-    textured roughness and emission (lane by lane), a normal map (the scalar path)."""
+    textured roughness and emission (lane by lane), a normal map (the scalar path); and a
+    finely cut sphere of the floor's material, whose triangles are smaller than a pixel (the
+    gather lane by lane)."""
     rng = np.random.default_rng(5)
     images = [
         TextureImage(f"<img{k}>", rng.uniform(0.0, 1.0, (40 + 8 * k, 56, 4)).astype(np.float32)) for k in range(4)
@@ -69,6 +72,7 @@ def _scene():
     for k in range(1, len(materials)):
         x = -5.0 + 2.0 * (k - 1)
         meshes.append(quad((x, 0.0, -2.0 - 0.7 * k), (1.6, 0.0, 0.3), (0.0, 2.5, 0.0), k, f"/panel{k}"))
+    meshes.append(uv_sphere((3.6, 0.9, -0.5), 0.8, rings=32, segments=64, material=0, name="/fine"))
     scene = make_scene(meshes, materials, images=images, textures=textures)
     return scene, look_at_camera((0.0, 1.6, 6.0), (0.0, 0.6, -6.0), hfov_deg=70.0)
 
@@ -98,7 +102,13 @@ def test_row_loop_writes_what_surface_at_grad_gives(device, threads):
         blocks = loop.background_blocks.numpy()
         np.testing.assert_array_equal(blocks[:, 0] == 1, (~hit[:, :64]).all(axis=1))
     materials = loop.channel_numpy("material_id")
-    # every path is taken: background, the floor and each panel
+    # every path is taken: background, the floor and each panel; chunks whose runs of one
+    # triangle are short (the gather lane by lane) and long (once a run); whole chunks in
+    # rows that start a cache line (written in whole lines) and the others
+    tris = loop.triangle_id.numpy().reshape(H, W)[:, :128].reshape(H, 2, 64)
+    runs = 1 + (tris[..., 1:] != tris[..., :-1]).sum(axis=-1)
+    hit_chunks = (tris >= 0).any(axis=-1)
+    assert (runs[hit_chunks] * SHORT_RUN_PIXELS > 64).any() and (runs[hit_chunks] * SHORT_RUN_PIXELS <= 64).any()
     assert 0.05 < hit.mean() < 0.95
     assert set(np.unique(materials[hit])) == set(range(len(scene.materials)))
     # the reference: the hit record copied, the background's values, the scalar surface

@@ -49,6 +49,51 @@ auto wh_normalize = [&](const wp::vec3& a) WH_INLINE -> wp::vec3 {
 """
 
 
+#: C++ (after ``CHUNK_CPP``): ``wh_write_floats(out, k, n, a, b, c, d)`` writes a channel of
+#: ``k`` <= 4 float components for a chunk's ``n`` lanes, component q of lane j in
+#: ``{a, b, c, d}[q][j]``, interleaved to ``out``; ``wh_write_ints(out, n, a)`` an int channel.
+#: Where the chunk is a whole one (``n == CHUNK`` on the CPU) and ``out`` a cache line's
+#: start, the values go out in whole lines that bypass the caches (non-temporal stores): a
+#: store to part of a line first reads the line, and a pass writing a channel of the whole
+#: image (more than the caches hold) spent most of its time in those reads; else one by
+#: one.  A row loop that wrote this way ends with ``WH_STREAM_FENCE()`` (the lines ordered
+#: before whatever the pass's end publishes to other threads).
+STREAM_CPP = """
+#if defined(__CUDA_ARCH__)
+#define WH_STREAM_LINES(T, out, values, count) (void)0
+#define WH_STREAM_FENCE() (void)0
+#else
+#define WH_STREAM_LINES(T, out, values, count) \\
+    for (int wh_i = 0; wh_i < (count); wh_i += 16) { \\
+        typedef T wh_line_t __attribute__((ext_vector_type(16))); \\
+        __builtin_nontemporal_store(*(const wh_line_t*)((values) + wh_i), (wh_line_t*)((out) + wh_i)); \\
+    }
+#define WH_STREAM_FENCE() __atomic_thread_fence(__ATOMIC_SEQ_CST)
+#endif
+auto wh_write_floats = [&](float* out, const int k, const int n, const float* a, const float* b, const float* c,
+                           const float* d) WH_INLINE {
+    const float* lanes[4] = {a, b, c, d};
+    if (CHUNK > 1 && n == CHUNK && ((size_t)out & 63) == 0) {
+        alignas(64) float line[4 * CHUNK];
+        for (int j = 0; j < CHUNK; ++j)
+            for (int q = 0; q < k; ++q) line[k * j + q] = lanes[q][j];
+        WH_STREAM_LINES(float, out, line, k * CHUNK);
+    } else {
+        for (int j = 0; j < n; ++j)
+            for (int q = 0; q < k; ++q) out[k * j + q] = lanes[q][j];
+    }
+};
+auto wh_write_ints = [&](int* out, const int n, const int* a) WH_INLINE {
+    if (CHUNK > 1 && n == CHUNK && ((size_t)out & 63) == 0) {
+        alignas(64) int line[CHUNK];
+        for (int j = 0; j < CHUNK; ++j) line[j] = a[j];
+        WH_STREAM_LINES(int, out, line, CHUNK);
+    } else {
+        for (int j = 0; j < n; ++j) out[j] = a[j];
+    }
+};
+"""
+
 #: C++: ``wh_at(a, i, j)``, element (i, j) of a 2-D Warp array (a step of each stride in
 #: bytes), for native code that reads arrays through a struct (the tracer's group functions).
 WH_AT_CPP = """

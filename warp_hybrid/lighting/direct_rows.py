@@ -31,7 +31,7 @@ import warp as wp
 
 from ..core.camera import CAMERA_RAY_CPP, CameraGPU
 from ..core.gbuffer import GBufferArrays
-from ..core.native_rows import CHUNK_CPP, row_cpp
+from ..core.native_rows import CHUNK_CPP, STREAM_CPP, row_cpp
 from ..core.scene_gpu import FLAG_TRANSMISSIVE, AmbientGPU, SceneGPU
 from ..scene.device.environment import dome_along_lanes_cpp
 from .native_math import cpp
@@ -379,7 +379,7 @@ _RADIANCE_CPP = f"""
     }} else {{
         if (uniform_dome) radiance(true, false); else radiance(false, false);
     }}
-    for (int j = 0; j < n; ++j) out[xs + j] = wp::vec3(cr[j], cg[j], cb[j]);
+    wh_write_floats((float*)(out + xs), 3, n, cr, cg, cb, nullptr);
 """
 
 # A chunk of background pixels alone (most of a row that sees the sky) takes only the
@@ -392,18 +392,20 @@ _BACKGROUND_DOME_CPP = dome_along_lanes_cpp(
     "n",
     "wh_pixel_ray(wp::add((float)(xs + j), cam.sample[0]), wp::add((float)y, cam.sample[1]))",
     "true",
-    "out[xs + j] = wh_select(dome, c, wp::vec3(0.0f));",
+    "const wp::vec3 sky_c = wh_select(dome, c, wp::vec3(0.0f)); cr[j] = sky_c[0]; cg[j] = sky_c[1]; cb[j] = sky_c[2];",
 )
 _BACKGROUND_CHUNK_CPP = f"""
     int surface_lanes = 0;
     for (int j = 0; j < n; ++j) surface_lanes += triangle[xs + j] >= 0 ? 1 : 0;
     if (surface_lanes == 0) {{
-        if (uniform_dome) {{
-            for (int j = 0; j < n; ++j) out[xs + j] = sky;
-        }} else if (!textured) {{
-            for (int j = 0; j < n; ++j) out[xs + j] = wh_select(dome, env.color, wp::vec3(0.0f));
+        if (uniform_dome || !textured) {{
+            const wp::vec3 c = uniform_dome ? sky : wh_select(dome, env.color, wp::vec3(0.0f));
+            for (int j = 0; j < n; ++j) {{
+                cr[j] = c[0]; cg[j] = c[1]; cb[j] = c[2];
+            }}
         }} else {{{_BACKGROUND_DOME_CPP}
         }}
+        wh_write_floats((float*)(out + xs), 3, n, cr, cg, cb, nullptr);
         continue;
     }}"""
 
@@ -450,7 +452,7 @@ float er[CHUNK], eg[CHUNK], eb[CHUNK];"""
             "diffuse_albedo",
             *(("env_brdf", "surface_radiance", "ambient_irradiance", "prefiltered_radiance") if lit else ()),
         )
-        + (_PIXEL_RAY_CPP if lit else "")
+        + (_PIXEL_RAY_CPP + STREAM_CPP if lit else "")
         + f"""
 const wp::vec3* position = {row_cpp("gb.position", "y", "wp::vec3")};
 const wp::vec3* normal = {row_cpp("gb.normal", "y", "wp::vec3")};
@@ -469,6 +471,7 @@ for (int xs = x0; xs < x1; xs += CHUNK) {{
 {lane_fill_cpp("position[x]", "normal[x]", "albedo[x]", "specular[x]", "optics[x]", "material[x]")}{lit_gather}
     }}
 {shade}}}
+{"WH_STREAM_FENCE();" if lit else ""}
 """
     )
 

@@ -49,7 +49,7 @@ import warp as wp
 from ..core.camera import CAMERA_RAY_CPP, CameraGPU, pixel_ray
 from ..core.constants import LUMA_709_CPP, luma709
 from ..core.gbuffer import BACKGROUND, GBufferRows, Optics
-from ..core.native_rows import CHUNK_CPP
+from ..core.native_rows import CHUNK_CPP, LAMBDA_HEADER_CPP, STREAM_CPP
 from ..core.pixel_list import listed_pixel
 from ..core.scene_gpu import FLAG_VERTEX_COLOR, SceneGPU
 from ..scene.device.surface import SURFACE_CPP, UV_FOOTPRINT_CPP, is_cut_away, samples_textures, surface_at_grad
@@ -347,10 +347,13 @@ const wp::vec3 p2(cx[j], cy[j], cz[j]);
 # (3) the camera ray and ``EXACT_HIT_CPP`` in a loop of plain arithmetic over the chunk
 # (no memory access but its own scratch, no branch: the compiler vectorises it across
 # pixels), (4) the hit record, or the background's for an empty key (a chunk of empty
-# keys alone takes the background's and skips (2) and (3)).  Every array it writes is
-# contiguous (``GBufferRows`` views whole buffers).
+# keys alone takes the background's and skips (2) and (3)), written in whole cache lines
+# (``STREAM_CPP``).  Every array it writes is contiguous (``GBufferRows`` views whole
+# buffers).
 _RESOLVE_SPAN_CPP = (
     CHUNK_CPP
+    + LAMBDA_HEADER_CPP
+    + STREAM_CPP
     + f"""
 const wp::uint64 empty = {int(EMPTY_KEY.value)}ull;
 const wp::vec3* corners = points.data;
@@ -363,6 +366,7 @@ const wp::uint64* first = (const wp::uint64*)((const char*)keys.data + (size_t)y
 wp::uint64 key[CHUNK];
 {_CORNER_LANES_CPP}
 float hit_t[CHUNK], hit_u[CHUNK], hit_v[CHUNK];
+int tri_v[CHUNK];
 for (int xs = x0; xs < x1; xs += CHUNK) {{
     const int n = x1 - xs < CHUNK ? x1 - xs : CHUNK;
     for (int j = 0; j < n; ++j) key[j] = first[xs + j];
@@ -370,19 +374,16 @@ for (int xs = x0; xs < x1; xs += CHUNK) {{
         const wp::uint64* slice = (const wp::uint64*)((const char*)first + (size_t)s * keys.strides[0]);
         for (int j = 0; j < n; ++j) key[j] = wp::min(key[j], slice[xs + j]);
     }}
-    int* tri_out = gb.triangle_id.data + row + xs;
-    float* depth_out = gb.depth.data + row + xs;
-    wp::vec2* bary_out = gb.barycentric.data + row + xs;
     int hits = 0;
     for (int j = 0; j < n; ++j) hits += key[j] != empty ? 1 : 0;
     if (hits == 0) {{  // (a chunk of background alone: its miss values, no corners or rays)
         for (int j = 0; j < n; ++j) {{
-            tri_out[j] = miss_triangle;
-            depth_out[j] = miss_depth;
-            bary_out[j] = wp::vec2(miss_barycentric);
+            tri_v[j] = miss_triangle;
+            hit_t[j] = miss_depth;
+            hit_u[j] = miss_barycentric;
+            hit_v[j] = miss_barycentric;
         }}
-        continue;
-    }}
+    }} else {{
     for (int j = 0; j < n; ++j) {{
         wp::vec3 a(0.0f), b(0.0f), c(0.0f);
         if (key[j] != empty) {{
@@ -402,11 +403,17 @@ for (int xs = x0; xs < x1; xs += CHUNK) {{
     }}
     for (int j = 0; j < n; ++j) {{
         const bool hit = key[j] != empty;
-        tri_out[j] = hit ? (int)(key[j] & 0xFFFFFFFFull) : miss_triangle;
-        depth_out[j] = hit ? hit_t[j] : miss_depth;
-        bary_out[j] = hit ? wp::vec2(hit_u[j], hit_v[j]) : wp::vec2(miss_barycentric);
+        tri_v[j] = hit ? (int)(key[j] & 0xFFFFFFFFull) : miss_triangle;
+        hit_t[j] = hit ? hit_t[j] : miss_depth;
+        hit_u[j] = hit ? hit_u[j] : miss_barycentric;
+        hit_v[j] = hit ? hit_v[j] : miss_barycentric;
     }}
+    }}
+    wh_write_ints(gb.triangle_id.data + row + xs, n, tri_v);
+    wh_write_floats(gb.depth.data + row + xs, 1, n, hit_t, nullptr, nullptr, nullptr);
+    wh_write_floats((float*)(gb.barycentric.data + row + xs), 2, n, hit_u, hit_v, nullptr, nullptr);
 }}
+WH_STREAM_FENCE();
 """
 )
 
@@ -518,19 +525,62 @@ def _background_cpp(channel: str) -> str:
     return f"{float(BACKGROUND[channel])!r}f"
 
 
+#: The surface row loop's lane arrays of each channel it writes (component by component;
+#: ``material_id`` in ``out_mid``).
+_SURFACE_LANES = {
+    "position": ("qx", "qy", "qz"),
+    "normal": ("sx", "sy", "sz"),
+    "geometric_normal": ("gx", "gy", "gz"),
+    "albedo": ("ar", "ag", "ab"),
+    "specular": ("kr", "kg", "kb"),
+    "emission": ("er", "eg", "eb"),
+    "optics": ("o_refl", "o_ior", "o_opac", "o_rough"),
+}
+#: A chunk whose runs of pixels on one triangle average under this many pixels gathers
+#: each pixel's corners (the surface row loop's step (1)).
+SHORT_RUN_PIXELS = 4
+
+
+def _background_lanes_cpp(keep: str) -> str:
+    """C++ statements: lane j's channels (``_SURFACE_LANES``, ``out_mid``) keep their values
+    where ``keep`` holds, else take the background's (``gbuffer.BACKGROUND``)."""
+    lines = [
+        f"{lane}[j] = {keep} ? {lane}[j] : {_background_cpp(channel)};"
+        for channel, lanes in _SURFACE_LANES.items()
+        for lane in lanes
+    ]
+    lines.append(f"out_mid[j] = {keep} ? out_mid[j] : {int(BACKGROUND['material_id'])};")
+    return " ".join(lines)
+
+
+#: C++: the chunk's channels written to the G-buffer's rows from the lane arrays.
+_WRITE_LANES_CPP = (
+    " ".join(
+        f"wh_write_floats((float*)(gb.{channel}.data + row + xs), {len(lanes)}, n, "
+        f"{', '.join(lanes + ('nullptr',) * (4 - len(lanes)))});"
+        for channel, lanes in _SURFACE_LANES.items()
+    )
+    + " wh_write_ints(gb.material_id.data + row + xs, n, out_mid);"
+)
+
+
 # The surface pass's row loop: a chunk of pixels at a time, (1) a gather of each pixel's
-# triangle corners, corner uvs and normals (once for a run of pixels on one triangle) and
-# its barycentrics (none for the background), (2) the camera ray, the uv footprint (``UV_FOOTPRINT_CPP``) and the
-# surface's frame (``wh_surface_frame``) as plain arithmetic over the chunk (the compiler
-# vectorises it across pixels), (3) the material (``wh_material``, its textures filtered
-# over the footprint: over the chunk, its taps too, where every pixel shows one material
-# whose only texture is its diffuse colour, else pixel by pixel) and the stores of every
-# channel but the hit record: the background's values where no surface is hit.  A pixel
-# whose material has a normal map is left for the scalar path (``surface_at_grad``); the
-# loop returns how many it left.  The same lambdas as ``surface_at_grad``, so the same bits.
+# triangle corners, corner uvs and normals and its barycentrics (none for the background):
+# once for a run of pixels on one triangle, or lane by lane across the chunk where its runs
+# are short (``SHORT_RUN_PIXELS``), (2) the camera ray, the uv footprint
+# (``UV_FOOTPRINT_CPP``) and the surface's frame (``wh_surface_frame``) as plain arithmetic
+# over the chunk (the compiler vectorises it across pixels), (3) the materials
+# (``wh_material``, its textures filtered over the footprint): each material whose only
+# texture is its diffuse colour over the chunk, its taps too, the others pixel by pixel,
+# (4) every channel but the hit record, the background's values where no surface is hit,
+# from lane arrays (``_SURFACE_LANES``) in whole cache lines (``STREAM_CPP``).  A pixel
+# whose material has a normal map is left for the scalar path (``surface_at_grad``, which
+# writes all of it after); the loop returns how many it left.  The same lambdas as
+# ``surface_at_grad``, so the same bits.
 _SURFACE_SPAN_CPP = (
     CHUNK_CPP
     + SURFACE_CPP
+    + STREAM_CPP
     + f"""
 const wp::vec3* corners = scene.points.data;
 const int* index = scene.indices.data;
@@ -548,44 +598,26 @@ float u0[CHUNK], v0[CHUNK], u1[CHUNK], v1[CHUNK], u2[CHUNK], v2[CHUNK];
 float mx[CHUNK], my[CHUNK], mz[CHUNK], nx1[CHUNK], ny1[CHUNK], nz1[CHUNK], ox[CHUNK], oy[CHUNK], oz[CHUNK];
 float bu[CHUNK], bv[CHUNK], f0[CHUNK], f1[CHUNK], f2[CHUNK], f3[CHUNK];
 float qx[CHUNK], qy[CHUNK], qz[CHUNK], gx[CHUNK], gy[CHUNK], gz[CHUNK], sx[CHUNK], sy[CHUNK], sz[CHUNK];
-float tu[CHUNK], tv[CHUNK], frac[CHUNK], dr[CHUNK], dg[CHUNK], db[CHUNK], hr[CHUNK], hg[CHUNK], hb[CHUNK];
-float rough[CHUNK], opaque[CHUNK];
-int mids[CHUNK], level[CHUNK];
+float tu[CHUNK], tv[CHUNK], su[CHUNK], sv[CHUNK], frac[CHUNK], dr[CHUNK], dg[CHUNK], db[CHUNK];
+// the chunk's channels as they are written (position, normals: q*, s*, g* above)
+float ar[CHUNK], ag[CHUNK], ab[CHUNK], kr[CHUNK], kg[CHUNK], kb[CHUNK], er[CHUNK], eg[CHUNK], eb[CHUNK];
+float o_refl[CHUNK], o_ior[CHUNK], o_opac[CHUNK], o_rough[CHUNK];
+int mids[CHUNK], level[CHUNK], out_mid[CHUNK];
 bool away[CHUNK];
 int left = 0;
 int xs = x0;
-// the stores of one pixel: the background's values, or lane j's surface
-auto store_background = [&](size_t i) WH_INLINE {{
-    gb.position.data[i] = wp::vec3({_background_cpp("position")});
-    gb.normal.data[i] = wp::vec3({_background_cpp("normal")});
-    gb.geometric_normal.data[i] = wp::vec3({_background_cpp("geometric_normal")});
-    gb.albedo.data[i] = wp::vec3({_background_cpp("albedo")});
-    gb.specular.data[i] = wp::vec3({_background_cpp("specular")});
-    gb.emission.data[i] = wp::vec3({_background_cpp("emission")});
-    auto& optics = gb.optics.data[i];
-    optics.reflectivity = {_background_cpp("optics")};
-    optics.ior = {_background_cpp("optics")};
-    optics.opacity = {_background_cpp("optics")};
-    optics.roughness = {_background_cpp("optics")};
-    gb.material_id.data[i] = {int(BACKGROUND["material_id"])};
-}};
-auto store_hit = [&](int j, int mid, const wp::vec3& albedo, const wp::vec3& specular, const wp::vec3& emission,
-                     float roughness, float opacity, float ior) WH_INLINE {{
-    const size_t i = row + (size_t)(xs + j);
-    const wp::vec3 nn(sx[j], sy[j], sz[j]);
-    gb.position.data[i] = wp::vec3(qx[j], qy[j], qz[j]);
-    gb.normal.data[i] = away[j] ? wp::neg(nn) : nn;
-    gb.geometric_normal.data[i] = wp::vec3(gx[j], gy[j], gz[j]);
-    gb.albedo.data[i] = albedo;
-    gb.specular.data[i] = specular;
-    gb.emission.data[i] = emission;
+// lane j's material values (the frame's are in q*, g*, s*, away)
+auto keep_material = [&](int j, int mid, const wp::vec3& albedo, const wp::vec3& specular, const wp::vec3& emission,
+                         float roughness, float opacity, float ior) WH_INLINE {{
+    ar[j] = albedo[0]; ag[j] = albedo[1]; ab[j] = albedo[2];
+    kr[j] = specular[0]; kg[j] = specular[1]; kb[j] = specular[2];
+    er[j] = emission[0]; eg[j] = emission[1]; eb[j] = emission[2];
     const wp::vec3 c = specular;
-    auto& optics = gb.optics.data[i];
-    optics.reflectivity = {LUMA_709_CPP};
-    optics.ior = ior;
-    optics.opacity = opacity;
-    optics.roughness = roughness;
-    gb.material_id.data[i] = mid;
+    o_refl[j] = {LUMA_709_CPP};
+    o_ior[j] = ior;
+    o_opac[j] = opacity;
+    o_rough[j] = roughness;
+    out_mid[j] = mid;
 }};
 for (; xs < x1; xs += CHUNK) {{
     const int n = x1 - xs < CHUNK ? x1 - xs : CHUNK;
@@ -597,7 +629,10 @@ for (; xs < x1; xs += CHUNK) {{
     for (int j = 0; j < n; ++j) hits += tris[xs + j] >= 0 ? 1 : 0;
     if (hits == 0) {{
         if (whole && blocks[xs / CHUNK] != 0) continue;
-        for (int j = 0; j < n; ++j) store_background(row + (size_t)(xs + j));
+        for (int j = 0; j < n; ++j) {{
+            {_background_lanes_cpp("false")}
+        }}
+        {_WRITE_LANES_CPP}
         if (whole) blocks[xs / CHUNK] = 1;
         continue;
     }}
@@ -605,7 +640,34 @@ for (; xs < x1; xs += CHUNK) {{
         blocks[xs / CHUNK] = 0;
         blocks[(xs + n - 1) / CHUNK] = 0;
     }}
-    // (a run of pixels on one triangle fetches its corners once)
+    // (1) the corners: where the chunk's runs of pixels on one triangle are short (small
+    // triangles, where a run's own loads and the branches ending it cost more than the
+    // loads they save), each pixel's own, gathered across the chunk; else once a run
+    int runs = 0;
+    for (int j = 0; j < n; ++j) runs += (j == 0 || tris[xs + j] != tris[xs + j - 1]) ? 1 : 0;
+    if (runs * {SHORT_RUN_PIXELS} > n) {{
+        const float* P = (const float*)corners;
+        const float* UV = (const float*)uvs;
+        const float* NN = (const float*)corner_normals;
+        #pragma clang loop vectorize(enable)
+        for (int j = 0; j < n; ++j) {{
+            const int tri = tris[xs + j];
+            const bool hit = tri >= 0;
+            const int k = 3 * (hit ? tri : 0);
+            const int ia = 3 * index[k], ib = 3 * index[k + 1], ic = 3 * index[k + 2];
+            ax[j] = hit ? P[ia] : 0.0f; ay[j] = hit ? P[ia + 1] : 0.0f; az[j] = hit ? P[ia + 2] : 0.0f;
+            bx[j] = hit ? P[ib] : 0.0f; by[j] = hit ? P[ib + 1] : 0.0f; bz[j] = hit ? P[ib + 2] : 0.0f;
+            cx[j] = hit ? P[ic] : 0.0f; cy[j] = hit ? P[ic + 1] : 0.0f; cz[j] = hit ? P[ic + 2] : 0.0f;
+            u0[j] = hit ? UV[2 * k] : 0.0f; v0[j] = hit ? UV[2 * k + 1] : 0.0f;
+            u1[j] = hit ? UV[2 * k + 2] : 0.0f; v1[j] = hit ? UV[2 * k + 3] : 0.0f;
+            u2[j] = hit ? UV[2 * k + 4] : 0.0f; v2[j] = hit ? UV[2 * k + 5] : 0.0f;
+            mx[j] = hit ? NN[3 * k] : 0.0f; my[j] = hit ? NN[3 * k + 1] : 0.0f; mz[j] = hit ? NN[3 * k + 2] : 0.0f;
+            nx1[j] = hit ? NN[3 * k + 3] : 0.0f; ny1[j] = hit ? NN[3 * k + 4] : 0.0f; nz1[j] = hit ? NN[3 * k + 5] : 0.0f;
+            ox[j] = hit ? NN[3 * k + 6] : 0.0f; oy[j] = hit ? NN[3 * k + 7] : 0.0f; oz[j] = hit ? NN[3 * k + 8] : 0.0f;
+            const wp::vec2 w = bary[xs + j];
+            bu[j] = hit ? w[0] : 0.0f; bv[j] = hit ? w[1] : 0.0f;
+        }}
+    }} else {{
     for (int run = 0; run < n;) {{
         const int tri = tris[xs + run];
         int end = run + 1;
@@ -635,6 +697,7 @@ for (; xs < x1; xs += CHUNK) {{
         }}
         run = end;
     }}
+    }}
     for (int j = 0; j < n; ++j) {{
         {_LANE_RAY_CPP}
         const wp::vec2 uv0(u0[j], v0[j]);
@@ -653,29 +716,30 @@ for (; xs < x1; xs += CHUNK) {{
         sx[j] = nn[0]; sy[j] = nn[1]; sz[j] = nn[2];
         tu[j] = u; tv[j] = v;
     }}
-    // (3) the materials: a chunk whose pixels all show one material (a patch of one mesh,
-    // the common case) with at most its diffuse colour textured is evaluated over the
-    // chunk, the level of detail, the taps (where both axes repeat) and the finish
-    // vectorised; any other chunk pixel by pixel (``wh_material``).
+    // (3) the materials, one at a time over the chunk: the level of detail, the taps
+    // (where both axes repeat) and the finish vectorised across the chunk for a material
+    // whose only texture is its diffuse colour (a patch of one mesh, the common case, takes
+    // one such pass; a chunk across a silhouette one per material, the other materials'
+    // lanes computed and dropped); any other material's pixels one by one (``wh_material``).
     int chunk_mid = -2;  // -2: no hit yet, -1: more than one material
     for (int j = 0; j < n; ++j) {{
         const int tri = tris[xs + j];
         mids[j] = tri >= 0 ? scene.triangle_material.data[tri] : -1;
         if (mids[j] >= 0) chunk_mid = chunk_mid == -2 ? mids[j] : (chunk_mid == mids[j] ? chunk_mid : -1);
     }}
-    bool shared = chunk_mid >= 0;
-    if (shared) {{
-        const auto& m = scene.materials.data[chunk_mid];
-        shared = m.normal_tex < 0 && (m.flags & {int(FLAG_VERTEX_COLOR)}) == 0 && m.emissive_tex < 0 &&
-                 m.roughness_tex < 0 && m.metallic_tex < 0 && m.opacity_tex < 0;
-    }}
-    if (shared) {{
-        const auto& m = scene.materials.data[chunk_mid];
+    auto across = [&](const int mid) WH_INLINE -> bool {{
+        const auto& m = scene.materials.data[mid];
+        return m.normal_tex < 0 && (m.flags & {int(FLAG_VERTEX_COLOR)}) == 0 && m.emissive_tex < 0 &&
+               m.roughness_tex < 0 && m.metallic_tex < 0 && m.opacity_tex < 0;
+    }};
+    // material ``mid``'s values kept for its lanes (``keep_material``), computed in every lane
+    auto evaluate = [&](const int mid) WH_INLINE {{
+        const auto& m = scene.materials.data[mid];
         if (m.diffuse_tex >= 0) {{
             const auto& t = scene.textures.data[m.diffuse_tex];
             for (int j = 0; j < n; ++j) {{
                 const wp::vec2 st = wh_texture_uv(t, wp::vec2(tu[j], tv[j]));
-                tu[j] = st[0]; tv[j] = st[1];
+                su[j] = st[0]; sv[j] = st[1];
                 wh_mip_level(t, wh_lod(t, wp::vec4(f0[j], f1[j], f2[j], f3[j])), level[j], frac[j]);
             }}
             if (t.wrap_s == {int(Wrap.REPEAT)} && t.wrap_t == {int(Wrap.REPEAT)}) {{
@@ -690,8 +754,8 @@ for (; xs < x1; xs += CHUNK) {{
                     const int fw = wp::max(t.width >> l, 1), fh = wp::max(t.height >> l, 1);
                     const int cw = wp::max(t.width >> u, 1), ch = wp::max(t.height >> u, 1);
                     auto channel = [&](int k) WH_INLINE -> float {{
-                        const float a = wh_bilinear_repeat_channel(texels, fine, fw, fh, tu[j], tv[j], k);
-                        const float b = wh_bilinear_repeat_channel(texels, coarse, cw, ch, tu[j], tv[j], k);
+                        const float a = wh_bilinear_repeat_channel(texels, fine, fw, fh, su[j], sv[j], k);
+                        const float b = wh_bilinear_repeat_channel(texels, coarse, cw, ch, su[j], sv[j], k);
                         return wp::add(wp::mul(wh_mip_blend(a, b, frac[j]), t.scale[k]), t.bias[k]);
                     }};
                     dr[j] = channel(0); dg[j] = channel(1); db[j] = channel(2);
@@ -699,7 +763,7 @@ for (; xs < x1; xs += CHUNK) {{
             }} else {{
                 for (int j = 0; j < n; ++j) {{
                     if (mids[j] < 0) continue;
-                    const wp::vec4 c = wp::add(wp::cw_mul(wh_trilinear_at(scene.texels.data, t, wp::vec2(tu[j], tv[j]),
+                    const wp::vec4 c = wp::add(wp::cw_mul(wh_trilinear_at(scene.texels.data, t, wp::vec2(su[j], sv[j]),
                                                                           level[j], frac[j]),
                                                           t.scale), t.bias);
                     dr[j] = c[0]; dg[j] = c[1]; db[j] = c[2];
@@ -715,34 +779,47 @@ for (; xs < x1; xs += CHUNK) {{
             float roughness, metallic, opacity;
             wh_material_finish(m, wp::vec3(dr[j], dg[j], db[j]), m.roughness, m.metallic, m.opacity, albedo, specular,
                                roughness, metallic, opacity);
-            dr[j] = albedo[0]; dg[j] = albedo[1]; db[j] = albedo[2];
-            hr[j] = specular[0]; hg[j] = specular[1]; hb[j] = specular[2];
-            rough[j] = roughness; opaque[j] = opacity;
+            if (mids[j] == mid) keep_material(j, mid, albedo, specular, m.emissive, roughness, opacity, m.ior);
+        }}
+    }};
+    if (chunk_mid >= 0 && across(chunk_mid)) {{
+        evaluate(chunk_mid);
+    }} else {{
+        // each material that goes across the chunk, from the first lane showing it
+        for (int first = 0; first < n; ++first) {{
+            const int mid = mids[first];
+            if (mid < 0 || (first > 0 && mids[first - 1] == mid)) continue;
+            bool seen = false;
+            for (int j = 0; j < first; ++j) seen = seen || mids[j] == mid;
+            if (!seen && across(mid)) evaluate(mid);
         }}
         for (int j = 0; j < n; ++j) {{
-            if (mids[j] < 0) store_background(row + (size_t)(xs + j));
-            else store_hit(j, chunk_mid, wp::vec3(dr[j], dg[j], db[j]), wp::vec3(hr[j], hg[j], hb[j]), m.emissive,
-                           rough[j], opaque[j], m.ior);
+            if (mids[j] < 0 || across(mids[j])) continue;
+            const auto& m = scene.materials.data[mids[j]];
+            if (m.normal_tex >= 0) {{  // (left for the scalar path, which writes it after)
+                ++left;
+                continue;
+            }}
+            wp::vec3 albedo, specular, emission;
+            float roughness, metallic, opacity;
+            wh_material(scene, m, 3 * tris[xs + j], bu[j], bv[j], wp::vec2(tu[j], tv[j]),
+                        wp::vec4(f0[j], f1[j], f2[j], f3[j]), albedo, specular, emission, roughness, metallic, opacity);
+            keep_material(j, mids[j], albedo, specular, emission, roughness, opacity, m.ior);
         }}
-        continue;
     }}
+    // (4) every channel of the chunk (``_SURFACE_LANES``), the background's values in its
+    // background lanes, written out (``wh_write_floats``: in whole lines, past the caches)
     for (int j = 0; j < n; ++j) {{
-        if (mids[j] < 0) {{
-            store_background(row + (size_t)(xs + j));
-            continue;
-        }}
-        const auto& m = scene.materials.data[mids[j]];
-        if (m.normal_tex >= 0) {{
-            ++left;
-            continue;
-        }}
-        wp::vec3 albedo, specular, emission;
-        float roughness, metallic, opacity;
-        wh_material(scene, m, 3 * tris[xs + j], bu[j], bv[j], wp::vec2(tu[j], tv[j]),
-                    wp::vec4(f0[j], f1[j], f2[j], f3[j]), albedo, specular, emission, roughness, metallic, opacity);
-        store_hit(j, mids[j], albedo, specular, emission, roughness, opacity, m.ior);
+        const bool hit = mids[j] >= 0;
+        const bool flip = hit && away[j];
+        sx[j] = flip ? -sx[j] : sx[j];
+        sy[j] = flip ? -sy[j] : sy[j];
+        sz[j] = flip ? -sz[j] : sz[j];
+        {_background_lanes_cpp("hit")}
     }}
+    {_WRITE_LANES_CPP}
 }}
+WH_STREAM_FENCE();
 return left;
 """
 )

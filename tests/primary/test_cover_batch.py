@@ -57,7 +57,7 @@ def _scene():
     -Z (near 0.05): small ones, wide ones, zero-area ones, ones beside or behind the
     view, ones crossing the near plane, ones far outside the guard band, and a share of
     them with a cut-out material; edges through pixel centres; triangles across the
-    far plane."""
+    far plane, small ones too."""
     rng = np.random.default_rng(3)
     tris = []
     for _ in range(260):  # small, in view, at random depths
@@ -84,6 +84,9 @@ def _scene():
     for _ in range(15):  # straddling the far plane (1e4)
         c = np.array([rng.uniform(-4e3, 4e3), rng.uniform(-2e3, 2e3), -1e4])
         tris.append(c + rng.normal(0.0, 2e3, (3, 3)))
+    for _ in range(60):  # small at the far plane (a pixel is about 200 there): before, behind and across it
+        c = np.array([rng.uniform(-6e3, 6e3), rng.uniform(-4e3, 4e3), -rng.uniform(0.995e4, 1.005e4)])
+        tris.append(c + rng.normal(0.0, 150.0, (3, 3)))
     rng.shuffle(tris)
     points = np.concatenate(tris).astype(np.float32)
     indices = np.arange(len(points), dtype=np.int32).reshape(-1, 3)

@@ -8,7 +8,9 @@ setup for up to ``BATCH_TRIANGLES`` triangles at once, in loops across them that
 compiler vectorises (gathers, float and 64-bit integer lanes), then rasterizes the ones
 left with a pixel centre in their box one at a time: ``coverage.raster_triangle``'s
 row and pixel loops, operation for operation (each float operation a Warp call, so
-nothing is fused differently), into the same keys.  A triangle that needs more (it
+nothing is fused differently), into the same keys; a wide triangle's row span of depth
+keys across lanes (each pixel's key read and written back, lowered where covered, as only
+this thread writes these rows).  A triangle that needs more (it
 crosses the near plane or leaves the guard band, or its material is cut out) is
 returned in a bit mask for the Warp path (``raster_clipped``, ``raster_triangle``).
 Only on the CPU: on CUDA a launch item is one cluster's triangles one at a time as
@@ -157,6 +159,25 @@ for (int j = 0; j < n; ++j) {{
             wc += (int64_t)lo * step_c;
         }}
         char* const row = keys + (size_t)y * target.keys.strides[1];
+        if (wide && target.mode == {int(MODE_DEPTH)} && target.keys.strides[2] == sizeof(uint64_t)) {{
+            // a wide row's span across lanes: each pixel's edge values as the loop below
+            // steps them (exact integers), the same depth arithmetic, and its key read
+            // and written back, kept or lowered (this thread's rows alone)
+            uint64_t* const span = (uint64_t*)row + x0;
+            #pragma clang loop vectorize(enable)
+            for (int k = lo; k <= hi; ++k) {{
+                const int64_t a = wa + (int64_t)(k - lo) * step_a;
+                const int64_t b = wb + (int64_t)(k - lo) * step_b;
+                const int64_t c = wc + (int64_t)(k - lo) * step_c;
+                const float denom = wp::add(wp::add(wp::mul((float)a, inv_za), wp::mul((float)b, inv_zb)),
+                                            wp::mul((float)c, inv_zc));
+                const bool covered = (a | b | c) >= 0 && denom >= min_denom;
+                const uint64_t value = ((uint64_t)__builtin_bit_cast(unsigned int, wp::div(farea, denom)) << 32) | id;
+                const uint64_t old = span[k];
+                span[k] = covered && value < old ? value : old;
+            }}
+            continue;
+        }}
         for (int k = lo; k <= hi; ++k) {{
             if ((wa | wb | wc) >= 0) {{
                 const float denom = wp::add(wp::add(wp::mul((float)wa, inv_za), wp::mul((float)wb, inv_zb)),

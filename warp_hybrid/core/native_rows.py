@@ -1,8 +1,8 @@
 """C++ pieces the native row loops share (the post stage's tone map, ``post/kernels.py``,
 and FXAA's contrast test, ``post/aa.py``; the raster resolve and the surface pass's
 footprints, ``primary/kernels.py``; the lighting pass's direct light,
-``lighting/direct_rows.py``): how many pixels a loop takes at a time, and a pointer to
-one row of an array."""
+``lighting/direct_rows.py``): how many pixels a loop takes at a time, a pointer to one
+row of an array, and the writer of a chunk's channel in whole cache lines."""
 
 from __future__ import annotations
 

@@ -141,6 +141,13 @@ for (int j = 0; j < n; ++j) {{
     const float inv_sc = wide ? inv_step(step_c) : 0.0f;
     const int64_t px0 = (int64_t)x0 * SUB + HALF_SUB;
     const uint64_t id = (uint64_t)tri;
+    // a pixel's perspective denominator from its edge values, and its depth key
+    auto denom_at = [&](const int64_t a, const int64_t b, const int64_t c) -> float {{
+        return wp::add(wp::add(wp::mul((float)a, inv_za), wp::mul((float)b, inv_zb)), wp::mul((float)c, inv_zc));
+    }};
+    auto depth_key = [&](const float denom) -> uint64_t {{
+        return ((uint64_t)__builtin_bit_cast(unsigned int, wp::div(farea, denom)) << 32) | id;
+    }};
     for (int y = by0[j]; y <= by1[j]; ++y) {{
         const int64_t py = (int64_t)y * SUB + HALF_SUB;
         int64_t wa = (pcx - pbx) * (py - pby) - (pcy - pby) * (px0 - pbx) + bias_a;
@@ -169,10 +176,9 @@ for (int j = 0; j < n; ++j) {{
                 const int64_t a = wa + (int64_t)(k - lo) * step_a;
                 const int64_t b = wb + (int64_t)(k - lo) * step_b;
                 const int64_t c = wc + (int64_t)(k - lo) * step_c;
-                const float denom = wp::add(wp::add(wp::mul((float)a, inv_za), wp::mul((float)b, inv_zb)),
-                                            wp::mul((float)c, inv_zc));
+                const float denom = denom_at(a, b, c);
                 const bool covered = (a | b | c) >= 0 && denom >= min_denom;
-                const uint64_t value = ((uint64_t)__builtin_bit_cast(unsigned int, wp::div(farea, denom)) << 32) | id;
+                const uint64_t value = depth_key(denom);
                 const uint64_t old = span[k];
                 span[k] = covered && value < old ? value : old;
             }}
@@ -180,15 +186,11 @@ for (int j = 0; j < n; ++j) {{
         }}
         for (int k = lo; k <= hi; ++k) {{
             if ((wa | wb | wc) >= 0) {{
-                const float denom = wp::add(wp::add(wp::mul((float)wa, inv_za), wp::mul((float)wb, inv_zb)),
-                                            wp::mul((float)wc, inv_zc));
+                const float denom = denom_at(wa, wb, wc);
                 if (denom >= min_denom) {{
                     uint64_t* key = (uint64_t*)(row + (size_t)(x0 + k) * target.keys.strides[2]);
                     if (target.mode == {int(MODE_DEPTH)}) {{
-                        const float z = wp::div(farea, denom);
-                        union {{ float f; unsigned int u; }} bits;
-                        bits.f = z;
-                        const uint64_t value = ((uint64_t)bits.u << 32) | id;
+                        const uint64_t value = depth_key(denom);
                         *key = value < *key ? value : *key;
                     }} else {{
                         *key += 1;

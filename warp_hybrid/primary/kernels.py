@@ -796,8 +796,9 @@ for (; xs < x1; xs += CHUNK) {{
         for (int j = 0; j < n; ++j) {{
             if (mids[j] < 0 || across(mids[j])) continue;
             const auto& m = scene.materials.data[mids[j]];
-            if (m.normal_tex >= 0) {{  // (left for the scalar path, which writes it after)
-                ++left;
+            if (m.normal_tex >= 0) {{  // (left for the scalar path, which writes all of it after;
+                ++left;                 // until then it takes the background's values, not stale lanes)
+                mids[j] = -1;
                 continue;
             }}
             wp::vec3 albedo, specular, emission;

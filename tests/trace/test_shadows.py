@@ -258,13 +258,15 @@ def test_shadow_bvhs_follow_animated_points(device: str, wide_bvh: bool | None, 
 @pytest.mark.parametrize("opacity", [0.3, 1.0])
 def test_packets_of_pixels_trace_what_one_pixel_at_a_time_does(opacity: float) -> None:
     """The CPU's primary shadow kernel traces eight list items' rays toward a light as one
-    packet (``wide_any_hit_packet``): past an opaque pane and through a glass one (the
-    ordered walk after the packet), toward a hard light and a soft spot and rect light
+    packet (``wide_any_hit_packet``): past opaque panes and through two glass ones (the
+    ordered walk, one or two layers), toward a hard light and a soft spot and rect light
     (three samples each; each light's reach decided for the packet at once, ``_reach_group``),
-    over a shuffled list whose length is no multiple of eight, with misses in it, and
-    again from the still view's cache, it gives every pixel the transmittance, the
-    visibility and the ray count that Warp's own queries, one pixel a thread, give."""
-    scene, cam = pane_scene(opacity)
+    over a shuffled list whose length is no multiple of eight, with misses in it, again
+    from the still view's cache, and traced once more (the cache's partial transmittances
+    then send groups through the glass walk without the any-hit pass first:
+    ``crossed``), it gives every pixel the transmittance, the visibility and the ray count
+    that Warp's own queries, one pixel a thread, give."""
+    scene, cam = pane_scene(opacity, panes=2)
     # (a spot: the points outside its cone get no ray)
     bulb = Light(
         LightKind.SPHERE,
@@ -298,7 +300,7 @@ def test_packets_of_pixels_trace_what_one_pixel_at_a_time_does(opacity: float) -
         for wide_bvh in (None, False):
             tracer = Tracer(launcher, TraceSettings(wide_bvh=wide_bvh, shadow_samples=3, seed=5), ALL_FEATURES)
             runs = []
-            for reuse in (False, True):
+            for reuse in (False, True, False):
                 color = wp.zeros((H, W), dtype=wp.vec3, device="cpu")
                 vis = wp.full((H, W, 3), value=float("nan"), dtype=wp.float32, device="cpu")
                 tracer.begin_frame(W, H)
@@ -311,5 +313,8 @@ def test_packets_of_pixels_trace_what_one_pixel_at_a_time_does(opacity: float) -
         assert rays == rays_ref
     vis = results[0][0][1]
     assert (vis == 1.0).any() and (((vis > 0.0) & (vis < 1.0)) if opacity < 1.0 else (vis == 0.0)).any()
+    if opacity < 1.0:  # (under the sun straight above: through one pane, and through both)
+        sun = vis[..., 0]
+        assert len(np.unique(np.round(sun[(sun > 0.0) & (sun < 1.0)], 4))) >= 2
     # traced, then the primary hits' rays from the cache (what is left: the reflections' shadow rays)
-    assert results[0][0][2] > count and results[0][1][2] < results[0][0][2] / 4
+    assert results[0][0][2] > count and results[0][1][2] < results[0][0][2] / 4 and results[0][2][2] == results[0][0][2]

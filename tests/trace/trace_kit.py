@@ -135,9 +135,11 @@ def grid_quad(corner, edge_u, edge_v, n: int, material: int) -> MeshInput:
     return MeshInput(pts.reshape(-1, 3).astype(np.float32), np.asarray(idx, np.int32), material)
 
 
-def pane_scene(opacity: float, thin: bool = True, blended: bool = False) -> tuple[Scene, Camera]:
+def pane_scene(opacity: float, thin: bool = True, blended: bool = False, panes: int = 1) -> tuple[Scene, Camera]:
     """A red pane (y = 1, thin-walled, 8 x 8 cells; glass, or alpha-blended coverage
-    when ``blended``) between a light straight above and a white floor."""
+    when ``blended``) between a light straight above and a white floor; with ``panes`` 2
+    a second one of the same material above it (y = 1.6, shifted 0.7 along x), so rays
+    toward the light cross both where they overlap."""
     pane = Material(
         "/pane", diffuse=(0.9, 0.1, 0.08), roughness=0.0, opacity=opacity, thin_walled=thin, alpha_blended=blended
     )
@@ -146,6 +148,8 @@ def pane_scene(opacity: float, thin: bool = True, blended: bool = False) -> tupl
         quad((-3.0, 0.0, 3.0), (6.0, 0.0, 0.0), (0.0, 0.0, -6.0), 0),
         grid_quad((-1.0, 1.0, 1.0), (2.0, 0.0, 0.0), (0.0, 0.0, -2.0), 8, 1),
     ]
+    if panes == 2:
+        meshes.append(grid_quad((-0.3, 1.6, 1.0), (2.0, 0.0, 0.0), (0.0, 0.0, -2.0), 8, 1))
     light = Light(LightKind.DISTANT, "/sun", (2.0, 2.0, 2.0), direction=(0.0, -1.0, 0.0))
     cam = look_at_camera((0.0, 5.0, 6.0), (0.0, 0.0, 0.0))
     return make_scene(meshes, mats, lights=[light], cameras=[cam]), cam

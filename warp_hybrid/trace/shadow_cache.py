@@ -16,6 +16,9 @@ which makes every entry stale at once; so does a change of the tracer's own stat
 scene, variant, shadow BVHs or the size).  The traced colour and the visibility AOV are
 therefore the same as without the cache; only the shadow rays already traced for the
 view are not traced again.  The path kernel's secondary hits trace theirs every frame.
+Whatever the generation, a pixel's last transmittances also tell the CPU's packet
+kernel which groups of pixels crossed glass lately (``shadows.crossed``): a hint of
+which way to query, never of what the answer is.
 """
 
 from __future__ import annotations

@@ -25,9 +25,13 @@ a pixel whose transmittances an earlier frame of the view traced takes them from
 cache instead (``shadow_cache.py``).  On the CPU (the 4-wide BVH copies) a kernel thread
 takes ``SHADOW_GROUP`` consecutive items and sends their rays toward each light (each
 sample) through the opaque BVH as one packet (``wide_bvh.wide_any_hit_packet``: a row of
-pixels' rays toward one light visit nearly the same nodes), the unblocked ones through the
-special BVH as a second packet, and only the rays that meet it through the ordered walk,
-one at a time: the same rays, the same random streams, the same answers as one item a
+pixels' rays toward one light visit nearly the same nodes), then the unblocked ones
+through the special BVH: an any-hit packet tells which meet it at all, and those walk
+through its layers together, each layer's nearest hits one packet
+(``wide_bvh.wide_closest_packet``); where the shadow cache's last transmittance toward
+the light at either end of the group is partial (``crossed``: its rays crossed glass
+when last traced, in any earlier frame) every unblocked ray walks at once, without the
+any-hit packet.  The same rays, the same random streams, the same answers as one item a
 thread (``shadow_launch`` gives either launch's shape).  Secondary hits'
 shadow rays (``make_light_func``, in the path kernel) go one at a time.
 """
@@ -46,7 +50,14 @@ from ..lighting.light_sampling import center_ray_length, light_has_extent, sampl
 from ..lighting.lights import LightSample, light_reaches, reach_sample
 from ..lighting.native_math import cpp
 from ..scene.device.surface import is_cut_away, surface_at
-from ..scene.device.wide_bvh import PACKET, wide_any_hit, wide_any_hit_packet, wide_closest
+from ..scene.device.wide_bvh import (
+    PACKET,
+    hit_from_row,
+    wide_any_hit,
+    wide_any_hit_packet,
+    wide_closest,
+    wide_closest_packet,
+)
 from .occluders import OccluderGPU
 from .offset import hit_bound, offset_ray_origin
 from .optics import transmission_tint
@@ -306,6 +317,78 @@ def _reach_group(light: LightGPU, ps: _group_vec3s, ns: _group_vec3s, live: _gro
     ...
 
 
+@wp.func
+def crossed(transmittance: wp.vec3) -> bool:
+    """Whether a transmittance is partial (some light let through, not all of it): what a
+    ray that crossed a transmissive or blended surface keeps (or soft shadows' average)."""
+    top = max3(transmittance)
+    return top > 0.0 and top < 1.0
+
+
+def _make_packet_walk_func(cutouts: bool):
+    """``packet_transmittance(scene, occ, o, d, max_t, walking)``: ``_make_walk_func``'s
+    ordered walk (its 4-wide copy) for the rays of a group at once: row j the
+    transmittance of ray ``o[j] + t d[j]``, ``0 <= t < max_t[j]``, for each ray whose bit
+    is set in ``walking`` (1 for the others).  Each layer's nearest hits of the rays still
+    walking are one ``wide_closest_packet`` (each ray's hit ``wide_closest``'s, bit for
+    bit), and each ray's crossing is the single walk's arithmetic, so every ray gets what
+    the single walk gives it: rays toward one light from neighbouring pixels cross the
+    same layers through the same nodes."""
+
+    @wp.func
+    def packet_transmittance(
+        scene: SceneGPU, occ: OccluderGPU, o: _group_vec3s, d: _group_vec3s, max_t: _group_floats, walking: int
+    ) -> _group_vec3s:
+        out = _group_vec3s()
+        origin = _group_vec3s()
+        remaining = _group_floats()  # 0: the ray's walk is over (none in the packet)
+        live = walking
+        for j in range(SHADOW_GROUP):
+            out[j] = wp.vec3(1.0, 1.0, 1.0)
+            if ((live >> j) & 1) != 0:
+                origin[j] = o[j]
+                remaining[j] = max_t[j]
+        for _layer in range(MAX_LAYERS):
+            if live == 0:
+                return out
+            hits = wide_closest_packet(occ.special_wide, origin, d, remaining)
+            for j in range(SHADOW_GROUP):
+                if ((live >> j) & 1) != 0:
+                    q = hit_from_row(hits[j])
+                    stop = not q.result
+                    if not stop:
+                        face = occ.special_faces[q.face]
+                        m = scene.materials[scene.triangle_material[face]]
+                        passes = False
+                        if wp.static(cutouts):
+                            if (m.flags & FLAG_CUTOUT) != 0:
+                                if not is_cut_away(scene, face, q.u, q.v):
+                                    out[j] = wp.vec3(0.0, 0.0, 0.0)
+                                    stop = True
+                                passes = True
+                        if not passes:
+                            if (m.flags & (FLAG_TRANSMISSIVE | FLAG_BLENDED)) == 0:
+                                out[j] = wp.vec3(0.0, 0.0, 0.0)
+                                stop = True
+                            else:
+                                t = wp.cw_mul(out[j], crossing_transmittance(scene, face, q.u, q.v, d[j]))
+                                out[j] = t
+                                if max3(t) <= 0.0:
+                                    out[j] = wp.vec3(0.0, 0.0, 0.0)
+                                    stop = True
+                        if not stop:
+                            origin[j] = step_past(scene, face, q.u, q.v, q.normal, d[j])
+                            remaining[j] = max_t[j] - wp.dot(origin[j] - o[j], d[j])
+                            if remaining[j] <= 0.0:
+                                stop = True
+                    if stop:
+                        live = live & ~(1 << j)
+                        remaining[j] = 0.0
+        return out
+
+    return packet_transmittance
+
+
 def shadow_launch(wide: bool, first: int, items: int) -> tuple[int, tuple[int, int]]:
     """The launch dimension and trailing inputs of ``shadow_kernel(..., wide)`` for the list
     items ``first`` to ``first + items``: one thread an item, ``(start, step)``; for the
@@ -412,10 +495,12 @@ def _packet_shadow_kernel(layered: bool, soft: bool, cutouts: bool) -> wp.Kernel
     (``shadow_ray``, as ``light_transmittance`` builds them, in the same order, from the
     same random streams) go through the opaque BVH as one packet, the unblocked ones
     (``layered``) through the BVH of the transmissive, cut-out and blended surfaces as a
-    second packet, and only the rays that meet one of those go through the ordered walk
-    (whose first query misses for the others: they keep 1), so every pixel gets what the
-    one-at-a-time kernel gives it."""
-    layered_transmittance = _make_walk_func(cutouts, True)
+    second packet, and the rays that meet one of those through the ordered walk as packets
+    (``_make_packet_walk_func``); or, where the group crossed glass when last traced
+    (``crossed`` of the cache's transmittance at the group's two ends), every unblocked ray
+    through the walk at once (its first layer misses for the rays that meet nothing: they
+    keep 1), so every pixel gets what the one-at-a-time kernel gives it, whichever way."""
+    packet_transmittance = _make_packet_walk_func(cutouts)
 
     # (the loops over the group's lanes stay loops: unrolled eight ways the kernel was 81 kB
     # of machine code, 44 kB as loops, and 13-17% slower; a core's instruction cache is 32 kB)
@@ -468,6 +553,12 @@ def _packet_shadow_kernel(layered: bool, soft: bool, cutouts: bool) -> wp.Kernel
             distances = _group_floats()
             reaches = _group_ints()
             reach = _reach_group(light, ps, ns, xs)
+            crossed_lately = bool(False)
+            if wp.static(layered):
+                for j in range(0, SHADOW_GROUP, SHADOW_GROUP - 1):  # (the group's two ends)
+                    if xs[j] >= 0:
+                        if crossed(cache.transmittance[ys[j], xs[j], i]):
+                            crossed_lately = True
             for j in range(SHADOW_GROUP):
                 if xs[j] >= 0:
                     states[j] = shadow_rng(tf.params, i, 0, ys[j] * tf.cam.width + xs[j])
@@ -504,24 +595,33 @@ def _packet_shadow_kernel(layered: bool, soft: bool, cutouts: bool) -> wp.Kernel
                 blocked = int(0)
                 if tf.occ.opaque != wp.uint64(0):
                     blocked = wide_any_hit_packet(tf.occ.opaque_wide, o, d, max_t)
-                # the unblocked rays that meet a transmissive, cut-out or blended surface at
-                # all (the walk's first query finds nothing for the others: they keep 1)
-                crossing = int(0)
+                # the unblocked rays that walk through the transmissive, cut-out and blended
+                # surfaces: those that meet one at all (the walk's first query finds nothing
+                # for the others: they keep 1), or, where the group's pixels crossed one
+                # lately (``crossed_lately``), every unblocked ray, whose first layer's
+                # nearest hits then tell which do, without the any-hit pass first
+                walking = int(0)
                 if wp.static(layered):
                     if tf.occ.special != wp.uint64(0):
                         open_t = _group_floats()  # 0 for a blocked ray: none in the packet
                         for j in range(SHADOW_GROUP):
-                            if ((blocked >> j) & 1) == 0:
+                            if ((blocked >> j) & 1) == 0 and max_t[j] > 0.0:
                                 open_t[j] = max_t[j]
-                        crossing = wide_any_hit_packet(tf.occ.special_wide, o, d, open_t)
+                                if crossed_lately:
+                                    walking = walking | (1 << j)
+                        if not crossed_lately:
+                            walking = wide_any_hit_packet(tf.occ.special_wide, o, d, open_t)
+                walked = _group_vec3s()
+                if walking != 0:
+                    walked = packet_transmittance(scene, tf.occ, o, d, max_t, walking)
                 for j in range(SHADOW_GROUP):
                     if ok[j] != 0:
                         t = wp.vec3(1.0, 1.0, 1.0)
                         if max_t[j] > 0.0:
                             if ((blocked >> j) & 1) != 0:
                                 t = wp.vec3(0.0, 0.0, 0.0)
-                            elif ((crossing >> j) & 1) != 0:
-                                t = layered_transmittance(scene, tf.occ, o[j], d[j], max_t[j])
+                            elif ((walking >> j) & 1) != 0:
+                                t = walked[j]
                         total[j] = total[j] + t
                         taken[j] = taken[j] + 1
             for j in range(SHADOW_GROUP):

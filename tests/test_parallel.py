@@ -15,6 +15,7 @@ from warp_hybrid.parallel import (
     BANDS_PER_THREAD,
     FEW_BANDS_PER_THREAD,
     ITEM_GROUP,
+    KEPT_TABLES,
     BandLaunch,
     CostBands,
     Launcher,
@@ -86,6 +87,34 @@ def test_launch_pixels_covers_only_the_rows_asked(
     expected = np.zeros((height, width), np.int32)
     expected[max(rows[0], 0) : min(rows[1], height)] = 1
     np.testing.assert_array_equal(out.numpy(), expected)
+
+
+def test_passes_on_one_launcher_cover_what_each_asks(device: str, band_threads: str) -> None:
+    """One launcher runs many passes in a row, as a renderer's frames do: pixel passes over
+    more shapes of rows than it keeps band tables for (``KEPT_TABLES``), the same shapes
+    again (their kept tables), timed passes between them (tables of their own, whose
+    times come back); each pass covers exactly the rows it asks for, once."""
+    height, width = 40, 7
+    out = wp.zeros((height, width), dtype=wp.int32, device=device)
+    item_cols = wp.zeros((height, width), dtype=wp.int32, device=device)
+    marks = wp.zeros(1000, dtype=wp.int32, device=device)
+    shapes = [(first, first + size) for size in (1, 5, 13) for first in range(0, height - size, 1)]
+    assert len(shapes) > KEPT_TABLES
+    with Launcher(device, 2) as launcher:
+        for sweep in range(2):
+            for k, rows in enumerate(shapes):
+                out.zero_()
+                launcher.launch_pixels(_count_pixels, height, width, [out, item_cols], rows=rows)
+                expected = np.zeros((height, width), np.int32)
+                expected[rows[0] : rows[1]] = 1
+                np.testing.assert_array_equal(out.numpy(), expected, err_msg=f"sweep {sweep}, rows {rows}")
+                if k % 7 == 0 and not wp.get_device(device).is_cuda:
+                    times = launcher.launch_bands(
+                        _count_items, [marks], [(250, (0, 1)), (250, (250, 1)), (500, (500, 1))], timed=True
+                    )
+                    assert len(times) == 3 and all(t >= 0.0 for t in times)
+    if not wp.get_device(device).is_cuda:
+        assert (marks.numpy() == marks.numpy()[0]).all() and marks.numpy()[0] > 0
 
 
 def test_launch_pixels_skips_empty_images(device: str) -> None:

@@ -111,6 +111,10 @@ BANDS_PER_THREAD = 8
 FEW_BANDS_PER_THREAD = 2
 MIN_BAND_ROWS = 4
 MIN_BAND_ITEMS = 256
+# How many band tables (and pixel passes' bands) a launcher keeps for reuse: a frame's
+# passes cut the same bands every frame, and building a pass's table in Python cost about
+# a third of its launch (~25 us); a launcher that meets more kinds starts again.
+KEPT_TABLES = 64
 # Consecutive items one CPU launch item takes in a grouped 1-D kernel (``launch_groups``):
 # Warp copies a kernel's struct arguments into every launch item, about 40 ns for the
 # tracer's 2.7 KB, which was 8% of the path kernel's time with one launch item an item.
@@ -209,6 +213,28 @@ def default_thread_count(device: wp.context.Device) -> int:
     return max(1, min(cpus or 1, 8))
 
 
+def band_table(
+    launches: Sequence[Sequence[Launch]], items: Sequence[int] | None, must: Sequence[bool] | None
+) -> np.ndarray:
+    """The native band threads' table of a pass (``band_pool.BAND_COLUMNS`` int64 a band):
+    band k's per-stage launches ``launches[k]`` (dimension, trailing integers), its items
+    (0 without ``items``) and whether it must run (every band without ``must``)."""
+    rows = []  # built as lists: a band's row costs ~1 us, not numpy's ~1 us a slice
+    for band_launches in launches:
+        row = [0] * BAND_COLUMNS
+        for s, (dim, ints) in enumerate(band_launches):
+            c = s * STAGE_COLUMNS
+            extents = (dim, 1) if isinstance(dim, int) else (*dim, 1)
+            row[c], row[c + 1] = extents[0], extents[1]
+            row[c + 2 : c + 2 + len(ints)] = ints
+        rows.append(row)
+    table = np.array(rows, dtype=np.int64)
+    if items is not None:
+        table[:, COL_ITEMS] = items
+    table[:, COL_MUST] = 1 if must is None else must
+    return table
+
+
 class BandLaunch:
     """The launches of one pass's bands of ``kernel``: its leading ``inputs`` (the same
     for every band; a callable gives them per thread ``slot``) are packed once per thread
@@ -267,11 +293,17 @@ class Launcher:
         self._loaded: set[int] = set()
         #: Per (kernel, trailing integers, stage): the last inputs' fingerprints and their blocks.
         self._packed: dict[tuple, tuple[list, list[PackedKernel]]] = {}
+        #: Untimed passes' band tables by their bands, and pixel passes' bands by their shape
+        #: (at most ``KEPT_TABLES`` each).
+        self._tables: dict[tuple, np.ndarray] = {}
+        self._pixel_bands: dict[tuple, list[Launch]] = {}
         self.profile: LaunchProfile | None = None
 
     def close(self) -> None:
         """Stop the worker threads (and let go of the arrays the kept blocks point to)."""
         self._packed.clear()
+        self._tables.clear()
+        self._pixel_bands.clear()
         if self._pool is not None:
             self._pool.shutdown(wait=True)
             self._pool = None
@@ -357,9 +389,16 @@ class Launcher:
             return
 
         per_thread = BANDS_PER_THREAD if self._bands is not None else bands_per_thread
-        bands = band_count(count, self.threads, MIN_BAND_ROWS, per_thread)
-        spans = [band(k, bands, count) for k in range(bands)]
-        self.launch_bands(kernel, inputs, [((rows, 1), (first + row0, 1, width)) for row0, rows in spans])
+        shape = (first, count, width, per_thread)
+        launches = self._pixel_bands.get(shape)
+        if launches is None:
+            bands = band_count(count, self.threads, MIN_BAND_ROWS, per_thread)
+            spans = [band(k, bands, count) for k in range(bands)]
+            launches = [((rows, 1), (first + row0, 1, width)) for row0, rows in spans]
+            if len(self._pixel_bands) >= KEPT_TABLES:
+                self._pixel_bands.clear()
+            self._pixel_bands[shape] = launches
+        self.launch_bands(kernel, inputs, launches)
 
     def launch_items(
         self, kernel: wp.Kernel, count: int, inputs: Sequence[Any], min_band_items: int = MIN_BAND_ITEMS
@@ -440,7 +479,11 @@ class Launcher:
             return [] if timed else None
         if self._bands is not None:
             self.ensure_loaded(kernel)
-            _ran, table = self._native_pass([(kernel, inputs)], [[launch] for launch in bands], None, None, timed)
+            if timed or self.profile is not None:  # (its times are read back: a table of its own)
+                table = band_table([[launch] for launch in bands], None, None)
+            else:
+                table = self._kept_table(bands)
+            self._native_pass([(kernel, inputs)], [len(bands[0][1])], table, timed)
             return (table[:, COL_CPU_NS] * 1e-9).tolist() if timed else None
         staged = self.launch_staged([(kernel, inputs)], [StagedBand((launch,)) for launch in bands], cpu=timed)
         return staged.cpu_seconds[:, 0].tolist() if timed else None
@@ -476,10 +519,9 @@ class Launcher:
         )
         if self._bands is not None and native_clock:
             deadline_ns = None if deadline is None else _deadline_ns(deadline)
-            items = [b.items for b in bands]
-            must = [b.must for b in bands]
+            table = band_table([b.launches for b in bands], [b.items for b in bands], [b.must for b in bands])
             # timed: the run reports every stage's wall seconds
-            ran, table = self._native_pass(stages, [b.launches for b in bands], items, must, True, deadline_ns)
+            ran = self._native_pass(stages, [len(ints) for _dim, ints in bands[0].launches], table, True, deadline_ns)
             n = len(stages)
             return StagedRun(
                 ran,
@@ -565,41 +607,39 @@ class Launcher:
             self._packed[key] = (prints, blocks)
         return blocks
 
+    def _kept_table(self, bands: Sequence[Launch]) -> np.ndarray:
+        """The band table of an untimed one-stage pass cut into ``bands``: the one built
+        for the same bands before (nothing reads its written-back columns), else a new
+        one, kept."""
+        key = tuple(bands)
+        table = self._tables.get(key)
+        if table is None:
+            if len(self._tables) >= KEPT_TABLES:
+                self._tables.clear()
+            table = self._tables[key] = band_table([[launch] for launch in bands], None, None)
+        return table
+
     def _native_pass(
         self,
         stages: Sequence[tuple[wp.Kernel, Inputs]],
-        launches: Sequence[Sequence[Launch]],
-        items: Sequence[int] | None,
-        must: Sequence[bool] | None,
+        tails: Sequence[int],
+        table: np.ndarray,
         timed: bool,
         deadline_ns: int | None = None,
-    ) -> tuple[int, np.ndarray]:
-        """One pass on the native band threads: the band table (``band_pool.BAND_COLUMNS``)
-        from each band's per-stage launches, its items and must-run flags; returns how
-        many bands ran and the table (each band's thread and, timed, its times)."""
-        pool = self._bands
-        rows = []  # built as lists: a band's row costs ~1 us, not numpy's ~1 us a slice
-        for band_launches in launches:
-            row = [0] * BAND_COLUMNS
-            for s, (dim, ints) in enumerate(band_launches):
-                c = s * STAGE_COLUMNS
-                extents = (dim, 1) if isinstance(dim, int) else (*dim, 1)
-                row[c], row[c + 1] = extents[0], extents[1]
-                row[c + 2 : c + 2 + len(ints)] = ints
-            rows.append(row)
-        table = np.array(rows, dtype=np.int64)
-        if items is not None:
-            table[:, COL_ITEMS] = items
-        table[:, COL_MUST] = 1 if must is None else must
-        blocks = [self._pack(kernel, inputs, len(launches[0][s][1]), s) for s, (kernel, inputs) in enumerate(stages)]
+    ) -> int:
+        """One pass on the native band threads over the band table ``table``
+        (``band_table``), stage s's kernel taking ``tails[s]`` trailing integers; returns
+        how many bands ran (the table gets each band's thread and, timed or profiled, its
+        times)."""
+        blocks = [self._pack(kernel, inputs, tail, s) for s, ((kernel, inputs), tail) in enumerate(zip(stages, tails))]
         profile = self.profile
-        ran = pool.run(blocks, table, timed or profile is not None, deadline_ns)
+        ran = self._bands.run(blocks, table, timed or profile is not None, deadline_ns)
         if profile is not None:
             for k, row in enumerate(table[:ran].tolist()):
                 for s, (kernel, _inputs) in enumerate(stages):
                     wall, cpu = row[COL_WALL_NS + s] * 1e-9, row[COL_CPU_NS + s] * 1e-9
                     profile.record(kernel.key, row[COL_SLOT], wall, cpu, k == 0)
-        return ran, table
+        return ran
 
     def share_until(
         self, job: Callable[[int, int], None], bands: int, proceed: Callable[[int], bool] | None = None

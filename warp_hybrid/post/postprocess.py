@@ -53,6 +53,7 @@ class PostProcess(RenderPass):
         self.tonemap = tonemap
         self.antialias = antialias
         self._buffers: dict[str, wp.array] = {}
+        self._exposure_from_rows: wp.Launch | None = None  # (made with the buffers)
         self._encoder = make_srgb8_encoder(launcher.device)
         self._luma_lut = wp.array(luma_table(), dtype=wp.vec3, device=launcher.device)
         self._exposure = wp.zeros(1, dtype=Exposure, device=launcher.device)  # EV 0 until a frame runs
@@ -84,6 +85,15 @@ class PostProcess(RenderPass):
                 "row_count": wp.zeros(height, dtype=wp.int32, device=dev),
                 "no_mask": wp.zeros((1, 1), dtype=wp.bool, device=dev),
             }
+            # the rows' sums into the exposure: one recorded launch for these buffers
+            # (``wp.launch``'s argument packing is most of a one-thread kernel's cost)
+            self._exposure_from_rows = wp.launch(
+                exposure_from_rows,
+                dim=1,
+                inputs=[self._buffers["row_sum"], self._buffers["row_count"], 2.0, self._exposure],
+                device=dev,
+                record_cmd=True,
+            )
         return self._buffers
 
     def _mask(self, hit_mask: np.ndarray | wp.array | None, shape: tuple[int, int]) -> tuple[str, wp.array]:
@@ -123,12 +133,7 @@ class PostProcess(RenderPass):
             [color, mask, buffers["row_sum"], buffers["row_count"]],
             bands_per_thread=FEW_BANDS_PER_THREAD,
         )
-        wp.launch(
-            exposure_from_rows,
-            dim=1,
-            inputs=[buffers["row_sum"], buffers["row_count"], 2.0, self._exposure],
-            device=self.launcher.device,
-        )
+        self._exposure_from_rows.launch()
 
     def set_exposure(self, ev: float) -> None:
         """Set ``exposure`` to the fixed ``ev`` (scale ``2**ev`` from the host)."""

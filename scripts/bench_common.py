@@ -9,6 +9,7 @@ import resource
 import statistics
 import subprocess
 import sys
+import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
@@ -44,6 +45,29 @@ def median_ms(fn: Callable[[], dict[str, float]], repeats: int = 5, warmup: int 
         fn()
     runs = [fn() for _ in range(repeats)]
     return {k: statistics.median(r[k] for r in runs) for k in runs[0]}
+
+
+def interleaved_medians(
+    fns: Sequence[Callable[[], dict[str, float]]], repeats: int = 5, warmup: int = 2, settle_s: float = 0.005
+) -> list[dict[str, float]]:
+    """``median_ms`` for several timed things at once, each run in turn: per repeat every
+    ``fn`` in turn (in order on even repeats, reversed on odd ones), each run twice back to
+    back and its second run kept (threads that a first run woke are awake, as between a
+    replay's frames), ``settle_s`` apart (longer than the native band threads spin:
+    neither side's idle threads take the cores from the other's run).  A machine whose
+    speed drifts over seconds then slows every side alike, so their ratios hold.
+    Returns each ``fn``'s per-stage medians, in order."""
+    for fn in fns:
+        for _ in range(warmup):
+            fn()
+    runs: list[list[dict[str, float]]] = [[] for _ in fns]
+    for r in range(repeats):
+        order = range(len(fns)) if r % 2 == 0 else reversed(range(len(fns)))
+        for i in order:
+            time.sleep(settle_s)
+            fns[i]()
+            runs[i].append(fns[i]())
+    return [{k: statistics.median(run[k] for run in fn_runs) for k in fn_runs[0]} for fn_runs in runs]
 
 
 def peak_rss_mb() -> float:

@@ -4,7 +4,9 @@ Mitsuba 3 (PyPI ``mitsuba``, the ``llvm_ad_rgb`` variant on the CPU, Dr.Jit on a
 threads as the renderer) is a benchmark-only dependency (``pip install -e .[bench]``):
 nothing else imports it.  Per scene, on the same triangles, camera and lights, at the
 same resolution (median of ``--repeats`` after a warm-up, everything evaluated and
-synchronised inside the timing):
+synchronised inside the timing; each of this project's frames measured in turn with the
+Mitsuba passes it is compared with, ``bench_common.interleaved_medians``, so a machine
+whose speed drifts slows both sides of a ratio alike):
 
 * **primary**: one camera ray per pixel centre through Mitsuba's BVH with the full
   surface interaction (position, shading frame, UVs, distance): against this project's
@@ -34,9 +36,10 @@ Rays are built on the host once (not timed).  Each scene runs in its own subproc
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 
 import numpy as np
-from bench_common import BVH_OPTION, median_ms, run_per_scene, wide_bvh_setting
+from bench_common import BVH_OPTION, interleaved_medians, run_per_scene, wide_bvh_setting
 
 PRIMARY_STAGES = ("raster", "resolve", "surface")
 
@@ -60,14 +63,15 @@ def _mitsuba(
     camera,
     width: int,
     height: int,
-    repeats: int,
     threads: int,
     bounce_mask: np.ndarray,
     through_mask: np.ndarray,
-) -> dict[str, float]:
-    """Mitsuba's primary, shadow and Whitted-style times (ms, medians), and the Whitted
-    frame whose bounce leaves from the pixels of ``bounce_mask`` ((H*W,) bool: reflection
-    rays) and, on through the surface, from those of ``through_mask`` (refraction rays)."""
+) -> tuple[dict, dict[str, Callable[[], dict[str, float]]]]:
+    """Mitsuba's view of the scene: what it sees (the share of pixels hit, the rays of the
+    same bounce) and its timed passes by name (each returns its ms): primary, shadow,
+    Whitted-style, and the Whitted frame whose bounce leaves from the pixels of
+    ``bounce_mask`` ((H*W,) bool: reflection rays) and, on through the surface, from those
+    of ``through_mask`` (refraction rays)."""
     import drjit as dr
     import mitsuba as mi
 
@@ -145,17 +149,16 @@ def _mitsuba(
         dr.sync_thread()
         return {"same_bounce": (time.perf_counter() - start) * 1000.0}
 
-    out = {
+    info = {
         "hit_share": hit_share,
         "rays": {"reflection": int(bounce_mask.sum()), "refraction": int(through_mask.sum())},
     }
-    for fn in (primary, shadow, whitted, same_bounce):
-        out.update(median_ms(fn, repeats, warmup=2))
-    return out
+    return info, {"primary": primary, "shadow": shadow, "whitted": whitted, "same_bounce": same_bounce}
 
 
 def measure_scene(path: str, width: int, height: int, repeats: int, bvh: str = "wide") -> dict:
-    """This project's raster and full frames and Mitsuba's three passes on one scene."""
+    """This project's raster and full frames and Mitsuba's passes on one scene, each of
+    ours in turn with the Mitsuba passes it is compared with (``interleaved_medians``)."""
     from warp_hybrid.core.constants import SMOOTH_ROUGHNESS
     from warp_hybrid.renderer import Renderer, RenderSettings
     from warp_hybrid.runtime import init_warp
@@ -166,8 +169,12 @@ def measure_scene(path: str, width: int, height: int, repeats: int, bvh: str = "
     camera = scene.cameras[0]
     ours: dict[str, dict[str, float]] = {}
     rays: dict[str, dict[str, int]] = {}
+    peer: dict = {}
+    passes: dict[str, Callable[[], dict[str, float]]] = {}
     threads = 0
     transmissive = np.array([m.is_glass for m in scene.materials] + [False], dtype=bool)  # FLAG_TRANSMISSIVE
+    # each of our frames with the Mitsuba passes it is compared with
+    compared = {"raster": ("primary",), "full": ("shadow", "whitted"), "full_depth1": ("same_bounce",)}
     for key, mode, depth in (("raster", "raster", 3), ("full", "full", 3), ("full_depth1", "full", 1)):
         settings = RenderSettings(
             width=width, height=height, mode=mode, max_depth=depth, wide_bvh=wide_bvh_setting(bvh)
@@ -180,15 +187,19 @@ def measure_scene(path: str, width: int, height: int, repeats: int, bvh: str = "
                 rays[key] = f.stats.get("rays", {})
                 return {**f.stats["stages_ms"], "frame": f.stats["frame_ms"]}
 
-            ours[key] = median_ms(frame, repeats)
-            if key == "raster":  # the G-buffer is the same in every mode
+            if key == "raster":  # the G-buffer is the same in every mode: where Mitsuba's bounce leaves
+                frame()
                 gb = r.buffers.gbuffer
                 hit = gb.hit_mask().ravel()
                 roughness = gb.channel_numpy("optics")[..., 3].ravel()
                 through = hit & transmissive[gb.material_id.numpy().ravel()]
                 bounce = hit & ((roughness < float(SMOOTH_ROUGHNESS)) | through)
+                peer, passes = _mitsuba(scene, camera, width, height, threads, bounce, through)
+            names = compared[key]
+            ours[key], *theirs = interleaved_medians([frame, *(passes[n] for n in names)], repeats)
+            for times in theirs:
+                peer.update(times)
     hit_share = float(hit.mean())
-    peer = _mitsuba(scene, camera, width, height, repeats, threads, bounce, through)
     primary = sum(ours["raster"].get(s, 0.0) for s in PRIMARY_STAGES)
     return {
         "triangles": scene.triangle_count,
@@ -230,7 +241,7 @@ def main() -> None:
             f"{m['rays']['reflection'] + m['rays']['refraction']} |"
         )
     threads = next(iter(results.values()))["threads"] if results else 0
-    print(f"\n{width}x{height}, {threads} threads on both, median of {args.repeats} after a warm-up")
+    print(f"\n{width}x{height}, {threads} threads on both, median of {args.repeats} after a warm-up, each side in turn")
     shares = ", ".join(f"{n} {r['hit_share']:.3f} / {r['mitsuba']['hit_share']:.3f}" for n, r in results.items())
     print(f"share of pixels that see a surface, ours / Mitsuba's (the same view): {shares}")
     if args.json:

@@ -10,10 +10,9 @@ channels and material flags, (2) the view direction and the diffuse colour
 (``native_math``) as straight-line arithmetic over the chunk, the light's kind a literal
 and its cone decided once (the compiler vectorises this across pixels; a rect light's
 chunk takes the short path where the rectangle lies above every pixel's horizon, the
-clipped polygon where it lies above none, where it is mixed the short path across the
-chunk and the clipped polygon across the pixels that need it, gathered), and (4) the
-sum, or in ``lit_span`` the pixel's radiance: under a dome whose light is the same from
-every direction (``ambient.direction_free``: none, or an
+clipped polygon where it lies above none, both and a choice per pixel where it is
+mixed), and (4) the sum, or in ``lit_span`` the pixel's radiance: under a dome whose
+light is the same from every direction (``ambient.direction_free``: none, or an
 untextured one) from one irradiance and one radiance for the row; under a textured one
 the SH irradiance at each normal, the lat-long uvs each pixel reads, the mip levels it
 blends and each bilinear fetch's texel indices and weights vectorised too, only the
@@ -90,101 +89,43 @@ def view_cpp(kd: str) -> str:
 RASTER_KD_CPP = "wh_diffuse_albedo(false, dome, nn, v, wp::vec3(ar[j], ag[j], ab[j]), opac[j], ior[j], flags[j])"
 
 
-# The lane arrays (3) reads, and the compacted copies of them a rect light's clipped
-# polygon runs over in a chunk where only some pixels need it.
-_LIGHT_INPUTS = ("px", "py", "pz", "nx", "ny", "nz", "vx", "vy", "vz", "kr", "kg", "kb", "fr", "fg", "fb", "rough")
-
-
-def _lane_lambda_cpp(name: str, prefix: str) -> str:
-    """C++ of the lambda ``name(kind, rect_path, j)``: one light's term at lane ``j`` of
-    the lane arrays named ``prefix`` + the usual names (``_LIGHT_INPUTS``; its colour into
-    ``prefix`` + cr, cg, cb)."""
-    a = {key: prefix + key for key in (*_LIGHT_INPUTS, "cr", "cg", "cb")}
-    return f"""
-        auto {name} = [&](const int kind, const int rect_path, const int j) WH_INLINE {{
-            const wp::vec3 p({a["px"]}[j], {a["py"]}[j], {a["pz"]}[j]);
-            const wp::vec3 nn({a["nx"]}[j], {a["ny"]}[j], {a["nz"]}[j]);
-            wp::vec3 wi, e_normal, irradiance;
-            float distance;
-            wh_light_sample(light, kind, has_cone, cos_inner, p, nn, true, rect_path, wi, distance, e_normal,
-                            irradiance);
-            const wp::vec3 c = wh_light_response(false, wi, e_normal, irradiance, nn,
-                                                 wp::vec3({a["vx"]}[j], {a["vy"]}[j], {a["vz"]}[j]),
-                                                 wp::vec3({a["kr"]}[j], {a["kg"]}[j], {a["kb"]}[j]),
-                                                 wp::vec3({a["fr"]}[j], {a["fg"]}[j], {a["fb"]}[j]), {a["rough"]}[j]);
-            {a["cr"]}[j] = c[0]; {a["cg"]}[j] = c[1]; {a["cb"]}[j] = c[2];
-        }};"""
-
-
-_GATHER_CLIPPED_CPP = "\n".join(f"                        q{key}[m] = {key}[j];" for key in _LIGHT_INPUTS)
-
-
 # (3) every light ``lights_begin`` .. ``lights_end - 1``: its term into cr, cg, cb, then
-# ``accumulate`` (C++ of a loop over the lanes) adds it to dr, dg, db.  A rect light takes
-# the short path where its rectangle lies above every pixel's horizon, the clipped polygon
-# where it lies above none, and in a chunk where it lies above some: with ``compact``, the
-# short path across the chunk, then the clipped polygon across the others alone, gathered
-# into lane arrays of their own (``q`` + the names) so that loop is as vectorised as the
-# chunk's (a row's 64 pixels: the staircase's lighting pass 20% faster); without, both
-# paths and a choice per pixel (``WH_RECT_ANY``: the tracer's groups of 16 listed pixels,
-# where the gathers cost what they save).
-def light_loop_cpp(accumulate: str, compact: bool = True) -> str:
-    """C++ of step (3), each light's term summed by ``accumulate``; ``compact``: a chunk's
-    pixels below a rect light's horizon gathered (above)."""
-    mixed = (
-        """
-                for (int j = 0; j < n; ++j) lane(WH_RECT, WH_RECT_ABOVE, j);
-                float """
-        + ", ".join(f"q{key}[CHUNK]" for key in (*_LIGHT_INPUTS, "cr", "cg", "cb"))
-        + """;
-                int clipped[CHUNK];
-                int m = 0;
-                for (int j = 0; j < n; ++j) {
-                    if (!rect_above[j]) {
-"""
-        + _GATHER_CLIPPED_CPP
-        + """
-                        clipped[m++] = j;
-                    }
-                }"""
-        + _lane_lambda_cpp("clipped_lane", "q")
-        + """
-                for (int k = 0; k < m; ++k) clipped_lane(WH_RECT, WH_RECT_CLIPPED, k);
-                for (int k = 0; k < m; ++k) {
-                    const int j = clipped[k];
-                    cr[j] = qcr[k]; cg[j] = qcg[k]; cb[j] = qcb[k];
-                }"""
-        if compact
-        else """
-                for (int j = 0; j < n; ++j) lane(WH_RECT, WH_RECT_ANY, j);"""
-    )
+# ``accumulate`` (C++ of a loop over the lanes) adds it to dr, dg, db.
+def light_loop_cpp(accumulate: str) -> str:
+    """C++ of step (3), each light's term summed by ``accumulate``."""
     return (
         """
     for (int li = lights_begin; li < lights_end; ++li) {
         const auto light = scene.lights.data[li];
         const bool has_cone = wh_has_cone(light);
-        const float cos_inner = has_cone ? wh_cone_inner(light) : 0.0f;"""
-        + _lane_lambda_cpp("lane", "")
-        + """
+        const float cos_inner = has_cone ? wh_cone_inner(light) : 0.0f;
+        auto lane = [&](const int kind, const int rect_path, const int j) WH_INLINE {
+            const wp::vec3 p(px[j], py[j], pz[j]);
+            const wp::vec3 nn(nx[j], ny[j], nz[j]);
+            wp::vec3 wi, e_normal, irradiance;
+            float distance;
+            wh_light_sample(light, kind, has_cone, cos_inner, p, nn, true, rect_path, wi, distance, e_normal,
+                            irradiance);
+            const wp::vec3 c = wh_light_response(false, wi, e_normal, irradiance, nn, wp::vec3(vx[j], vy[j], vz[j]),
+                                                 wp::vec3(kr[j], kg[j], kb[j]), wp::vec3(fr[j], fg[j], fb[j]), rough[j]);
+            cr[j] = c[0]; cg[j] = c[1]; cb[j] = c[2];
+        };
         if (light.kind == WH_DISTANT) {
             for (int j = 0; j < n; ++j) lane(WH_DISTANT, WH_RECT_ANY, j);
         } else if (light.kind == WH_SPHERE) {
             for (int j = 0; j < n; ++j) lane(WH_SPHERE, WH_RECT_ANY, j);
         } else if (light.kind == WH_RECT) {
-            bool rect_above[CHUNK];
             int above = 0;
             for (int j = 0; j < n; ++j) {
-                rect_above[j] = wh_rect_above(wp::sub(light.position, wp::vec3(px[j], py[j], pz[j])), light.axis_u,
-                                              light.axis_v, wp::vec3(nx[j], ny[j], nz[j]));
-                above += rect_above[j] ? 1 : 0;
+                above += wh_rect_above(wp::sub(light.position, wp::vec3(px[j], py[j], pz[j])), light.axis_u,
+                                       light.axis_v, wp::vec3(nx[j], ny[j], nz[j])) ? 1 : 0;
             }
             if (above == n) {
                 for (int j = 0; j < n; ++j) lane(WH_RECT, WH_RECT_ABOVE, j);
             } else if (above == 0) {
                 for (int j = 0; j < n; ++j) lane(WH_RECT, WH_RECT_CLIPPED, j);
-            } else {"""
-        + mixed
-        + """
+            } else {
+                for (int j = 0; j < n; ++j) lane(WH_RECT, WH_RECT_ANY, j);
             }
         } else {
             for (int j = 0; j < n; ++j) lane(-1, WH_RECT_ANY, j);

@@ -83,7 +83,7 @@ wp::mat_t<{ITEM_GROUP}, 3, float> out;
 const int end = stop - first < {ITEM_GROUP} ? stop : first + {ITEM_GROUP};  // (never more rows than ``out`` has)
 for (int xs = first; xs < end; xs += CHUNK) {{
     const int n = end - xs < CHUNK ? end - xs : CHUNK;{group_gather_cpp()}
-{view_cpp(TRACED_KD_CPP)}{light_loop_cpp(_SHADOWED_SUM_CPP, compact=False)}
+{view_cpp(TRACED_KD_CPP)}{light_loop_cpp(_SHADOWED_SUM_CPP)}
     for (int j = 0; j < n; ++j) {{
         out.data[xs - first + j][0] = dr[j]; out.data[xs - first + j][1] = dg[j]; out.data[xs - first + j][2] = db[j];
     }}

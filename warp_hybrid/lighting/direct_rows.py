@@ -356,7 +356,15 @@ _RADIANCE_CPP = f"""
     // (a literal ``uniform``: the row's one irradiance and radiance, folded in as constants;
     // a literal ``glass``: false in a chunk without a transmissive pixel, whose light
     // through glass then folds away)
-    auto radiance = [&](const bool uniform, const bool glass) WH_INLINE {{
+    // (a literal ``ambient`` false where the dome's ambient terms are off: the split-sum
+    // lookup, whose result the select below would drop, folds away; where they are on the
+    // select stays one the compiler cannot fold, ``ambient_on`` hidden from it, so the
+    // product it selects is rounded as it always was rather than fused into the sum)
+    bool ambient_on = amb.enabled != 0;
+#if !defined(__CUDA_ARCH__)
+    __asm__("" : "+r"(ambient_on));
+#endif
+    auto radiance = [&](const bool uniform, const bool glass, const bool ambient) WH_INLINE {{
         for (int j = 0; j < n; ++j) {{
             const wp::vec3 nn(nx[j], ny[j], nz[j]);
             const wp::vec3 v(vx[j], vy[j], vz[j]);
@@ -364,9 +372,11 @@ _RADIANCE_CPP = f"""
             const wp::vec3 s = uniform ? sky : wp::vec3(sr[j], sg[j], sb[j]);
             const wp::vec3 e = uniform ? e_free : wp::vec3(ir[j], ig[j], ib[j]);
             const wp::vec3 t = uniform ? sky : wp::vec3(tr[j], tg[j], tb[j]);
-            const wp::vec3 glossy = wh_select(amb.enabled != 0, wp::cw_mul(wh_env_brdf(amb.brdf_lut, f0, rough[j],
-                                                                                       wp::dot(nn, v)), s),
-                                              wp::vec3(0.0f));
+            const wp::vec3 glossy = ambient ? wh_select(ambient_on,
+                                                        wp::cw_mul(wh_env_brdf(amb.brdf_lut, f0, rough[j],
+                                                                               wp::dot(nn, v)), s),
+                                                        wp::vec3(0.0f))
+                                            : wp::vec3(0.0f);
             const wp::vec3 c = wh_surface_radiance(false, glass && dome, nn, v, wp::vec3(ar[j], ag[j], ab[j]),
                                                    wp::vec3(kr[j], kg[j], kb[j]), f0, wp::vec3(er[j], eg[j], eb[j]),
                                                    opac[j], ior[j], flags[j], wp::vec3(dr[j], dg[j], db[j]), e, glossy,
@@ -375,9 +385,13 @@ _RADIANCE_CPP = f"""
         }}
     }};
     if (glass_lanes > 0) {{
-        if (uniform_dome) radiance(true, true); else radiance(false, true);
+        if (!uniform_dome) radiance(false, true, true);
+        else if (amb.enabled != 0) radiance(true, true, true);
+        else radiance(true, true, false);
     }} else {{
-        if (uniform_dome) radiance(true, false); else radiance(false, false);
+        if (!uniform_dome) radiance(false, false, true);
+        else if (amb.enabled != 0) radiance(true, false, true);
+        else radiance(true, false, false);
     }}
     wh_write_floats((float*)(out + xs), 3, n, cr, cg, cb, nullptr);
 """

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from warp_hybrid.errors import RenderSettingsError, SceneError
+from warp_hybrid.post.postprocess import PostProcess
 from warp_hybrid.renderer import Renderer, RenderSettings
 from warp_hybrid.scene.authoring.builders import look_at_camera, make_scene, quad, uv_sphere
 from warp_hybrid.scene.model import Light, LightKind, Material
@@ -156,3 +157,23 @@ def test_topology_change_is_refused_clearly(device: str) -> None:
     with Renderer(scene, RenderSettings(width=W, height=H, device=device, mode="raster", threads=1)) as renderer:
         with pytest.raises(SceneError, match="topology changed"):
             renderer.update_scene(other)
+
+
+@pytest.mark.parametrize("blended", [False, True])
+@pytest.mark.parametrize("mode", ["raster", "hybrid"])
+def test_automatic_exposure_meters_the_raster_layer_as_drawn(device: str, mode: str, blended: bool) -> None:
+    """On the CPU the lighting row loop meters the raster layer as it writes it
+    (``FrameContext.metered_rows``) and the post stage sums its rows; the frame's EV is
+    still the post stage's own metering of the layer as the frame left it, at the
+    G-buffer's hit pixels, bit for bit: also where a later pass changes the layer (the
+    layer behind an alpha-blended sphere, blended in)."""
+    scene = sphere_scene()
+    if blended:
+        grey = dataclasses.replace(scene.materials[0], opacity=0.4, alpha_blended=True)
+        scene = dataclasses.replace(scene, materials=[grey, *scene.materials[1:]])
+    with Renderer(scene, RenderSettings(width=W, height=H, device=device, mode=mode, threads=2)) as r:
+        frame = r.render(scene.cameras[0])
+        post = PostProcess(r.launcher)
+        post.auto_exposure(r.buffers.raster_color, r.buffers.gbuffer.triangle_id)
+        assert frame.stats["exposure_ev"] != 0.0
+        assert frame.stats["exposure_ev"] == post.last_exposure_ev

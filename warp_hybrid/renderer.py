@@ -353,8 +353,10 @@ class Renderer:
             passes.insert(0, probe)
         if maps is not None:
             passes.insert(0, maps)
+        # (automatic exposure: the lighting row loop meters the raster layer as it writes it)
+        meter = s.exposure_ev is None
         if s.mode == "raster":
-            passes += [DeferredLighting(self.launcher, maps, probe), AlphaLayer(self.launcher, maps, probe)]
+            passes += [DeferredLighting(self.launcher, maps, probe, meter), AlphaLayer(self.launcher, maps, probe)]
         else:
             ring = s.ring_spec
             if ring is None:
@@ -374,7 +376,7 @@ class Renderer:
             if s.mode == "full":
                 passes.append(tracer)
             else:
-                lighting = DeferredLighting(self.launcher, maps, probe)
+                lighting = DeferredLighting(self.launcher, maps, probe, meter)
                 if s.fovea_spp > 1:
                     trace: RenderPass = FoveaSampler(tracer, s.fovea_spp, s.sample_seed)
                 else:

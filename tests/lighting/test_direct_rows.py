@@ -14,6 +14,7 @@ from warp_hybrid.core.scene_gpu import AmbientGPU, SceneGPU
 from warp_hybrid.lighting.ambient import direction_free
 from warp_hybrid.lighting.direct_rows import direct_span, lit_span
 from warp_hybrid.lighting.shading import diffuse_albedo, direct_light, shade_surface
+from warp_hybrid.post.kernels import LOG_LUMINANCE_KERNELS, MASK_ID
 from warp_hybrid.scene.authoring.builders import look_at_camera, make_scene, quad
 from warp_hybrid.scene.device import DeviceScene
 from warp_hybrid.scene.device.environment import environment_radiance
@@ -50,10 +51,17 @@ def scalar_kernel(scene: SceneGPU, cam: CameraGPU, gb: GBufferArrays, out: wp.ar
 
 @wp.kernel
 def lit_rows_kernel(
-    scene: SceneGPU, amb: AmbientGPU, cam: CameraGPU, gb: GBufferArrays, out: wp.array2d(dtype=wp.vec3)
+    scene: SceneGPU,
+    amb: AmbientGPU,
+    cam: CameraGPU,
+    gb: GBufferArrays,
+    out: wp.array2d(dtype=wp.vec3),
+    meter: int,
+    meter_sum: wp.array(dtype=wp.float64),
+    meter_count: wp.array(dtype=wp.int32),
 ):
     y = wp.tid()
-    lit_span(scene, amb, cam, gb, out, 0, scene.light_count, y, 0, cam.width)
+    lit_span(scene, amb, cam, gb, out, 0, scene.light_count, meter, meter_sum, meter_count, y, 0, cam.width)
 
 
 @wp.kernel
@@ -124,7 +132,9 @@ def test_lit_row_loop_matches_the_scalar_shading(device, dome, indirect):
     without the lights' indirect estimate in the ambient irradiance): emission, every
     kind of light, the ambient diffuse and glossy terms (mirror-sharp, between mip
     levels and past the last one), light through glass, and the dome on background
-    pixels, the same as ``shade_surface`` pixel by pixel."""
+    pixels, the same as ``shade_surface`` pixel by pixel; and on the CPU each row's
+    log-luminance sum and count, metered as the loop writes the row, the post stage's
+    (``post.kernels``' pass over the written colour with the hit mask) bit for bit."""
     rng = np.random.default_rng(11)
     materials = [Material("paint"), Material("glass", opacity=0.3, ior=1.5)]
     scene = make_scene(
@@ -150,8 +160,17 @@ def test_lit_row_loop_matches_the_scalar_shading(device, dome, indirect):
     got = wp.zeros((H, W), dtype=wp.vec3, device=device)
     want = wp.zeros((H, W), dtype=wp.vec3, device=device)
     inputs = [ds.gpu, ds.ambient, cam, gb.kernel_arrays()]
-    wp.launch(lit_rows_kernel, dim=H, inputs=[*inputs, got], device=device)
+    metered = (wp.zeros(H, dtype=wp.float64, device=device), wp.zeros(H, dtype=wp.int32, device=device))
+    meter = 1 if device == "cpu" else 0  # (CUDA: a launch item a pixel, the post stage meters)
+    wp.launch(lit_rows_kernel, dim=H, inputs=[*inputs, got, meter, *metered], device=device)
     wp.launch(lit_scalar_kernel, dim=(H, W), inputs=[*inputs, want], device=device)
+    if device == "cpu":
+        post = (wp.zeros(H, dtype=wp.float64, device=device), wp.zeros(H, dtype=wp.int32, device=device))
+        log_kernel = LOG_LUMINANCE_KERNELS[MASK_ID]
+        wp.launch(log_kernel, dim=(H, 1), inputs=[got, gb.triangle_id, *post, 0, 1, W], device=device)
+        assert post[1].numpy()[:-1].min() > 0 and post[1].numpy()[-1] == 0  # (the background row counts none)
+        np.testing.assert_array_equal(metered[0].numpy(), post[0].numpy())
+        np.testing.assert_array_equal(metered[1].numpy(), post[1].numpy())
     got, want = got.numpy(), want.numpy()
     assert np.all(np.isfinite(want)) and want.max() > 0.1
     background = want[triangles < 0]

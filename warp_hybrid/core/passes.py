@@ -57,6 +57,18 @@ class FrameBuffers:
         return (self.width, self.height, self.visibility.shape[2]) == (width, height, lights)
 
 
+@dataclass(frozen=True)
+class MeteredRows:
+    """A layer's log-luminance sums per row, as the post stage's automatic exposure meters
+    them (``post.kernels``: float64 sum and count of each row's hit pixels), left by the
+    pass that wrote the layer and metered it as it went (``DeferredLighting``), so the
+    post stage need not read it again."""
+
+    layer: wp.array
+    row_sum: wp.array
+    row_count: wp.array
+
+
 @dataclass
 class FrameContext:
     """Everything one frame's passes share, explicitly: the camera, the stage timer,
@@ -74,7 +86,8 @@ class FrameContext:
     every row.  ``changed_rows`` and
     ``changed_cols``: the only rows and columns of ``buffers.color`` that can differ from
     the previous frame's (None: any): none where the raster layer was kept, then widened
-    by each pass that writes ``color``."""
+    by each pass that writes ``color``.  ``metered_rows``: a layer's log-luminance sums,
+    metered by the pass that wrote it this frame (None once a later pass changes it)."""
 
     camera: CameraGPU
     timer: StageTimer
@@ -91,6 +104,7 @@ class FrameContext:
     raster_rows: RowSpan | None = None
     changed_rows: RowSpan | None = None
     changed_cols: RowSpan | None = None
+    metered_rows: MeteredRows | None = None
 
     @property
     def gbuffer(self) -> GBuffer:

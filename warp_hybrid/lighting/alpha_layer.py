@@ -95,6 +95,7 @@ class AlphaLayer(RenderPass):
         with frame.timer.stage("alpha_layer"):
             inner = StageTimer(clock=frame.timer.clock, sync=frame.timer.sync)
             self.blend(self.scene, frame.camera, frame.gbuffer, frame.buffers.raster_color, inner)
+        frame.metered_rows = None  # (the layer changed since it was metered)
 
     def blend(self, scene: DeviceScene, camera: CameraGPU, front: GBuffer, color: wp.array, timer: StageTimer) -> None:
         """Draw and shade what lies behind ``front``'s blended pixels and blend it into

@@ -38,7 +38,7 @@ import warp as wp
 
 from ..core.camera import CameraGPU, pixel_ray
 from ..core.gbuffer import GBuffer, GBufferArrays
-from ..core.passes import FrameContext, RenderPass
+from ..core.passes import FrameContext, MeteredRows, RenderPass
 from ..core.rows import RowSpan
 from ..core.scene_gpu import FLAG_TRANSMISSIVE, AmbientGPU, SceneGPU
 from ..parallel import Launcher
@@ -118,6 +118,9 @@ def _make_shade_kernel(shadowed: bool, probed: bool = False) -> wp.Kernel:
         probe: ProbeGPU,
         direct: wp.array2d(dtype=wp.vec3),
         color_out: wp.array2d(dtype=wp.vec3),
+        meter: int,
+        meter_sum: wp.array(dtype=wp.float64),
+        meter_count: wp.array(dtype=wp.int32),
         row0: int,
         row_step: int,
         cols: int,
@@ -145,7 +148,9 @@ def _make_shade_kernel(shadowed: bool, probed: bool = False) -> wp.Kernel:
         elif wp.static(probed):
             direct_span(scene, cam, gb, direct, 0, scene.light_count, y, first, stop)
         else:  # the whole radiance in the row loop
-            lit_span(scene, amb, cam, gb, color_out, 0, scene.light_count, y, first, stop)
+            lit_span(
+                scene, amb, cam, gb, color_out, 0, scene.light_count, meter, meter_sum, meter_count, y, first, stop
+            )
             return
         for x in range(first, stop):
             color_out[y, x] = shade_pixel(scene, amb, cam, gb, probe, x, y, direct[y, x])
@@ -178,13 +183,25 @@ class DeferredLighting(RenderPass):
     "probes" pass, after the maps)."""
 
     def __init__(
-        self, launcher: Launcher, shadow_maps: ShadowMaps | None = None, probe: ReflectionProbe | None = None
+        self,
+        launcher: Launcher,
+        shadow_maps: ShadowMaps | None = None,
+        probe: ReflectionProbe | None = None,
+        meter: bool = False,
     ) -> None:
-        """Shade on ``launcher``'s device, splitting rows across its threads."""
+        """Shade on ``launcher``'s device, splitting rows across its threads; with ``meter``
+        (the renderer's automatic exposure) the row loop meters the layer as it writes it
+        where it can (``_meter_rows``) and leaves the sums in ``FrameContext.metered_rows``."""
         self.launcher = launcher
         self.shadow_maps = shadow_maps
         self.probe = probe
+        self.meter = meter
         self._direct: wp.array | None = None
+        self._sums: tuple[wp.array, wp.array] | None = None  # (row sums, row counts), reused
+        self._no_sums = (
+            wp.zeros(1, dtype=wp.float64, device=launcher.device),
+            wp.zeros(1, dtype=wp.int32, device=launcher.device),
+        )
         # compiles the lighting module (or the variant's) up front
         launcher.ensure_loaded(shade_kernel(shadow_maps is not None, probe is not None))
 
@@ -194,7 +211,23 @@ class DeferredLighting(RenderPass):
         maps = self.shadow_maps.gpu if self.shadow_maps is not None else None
         probe = self.probe.gpu if self.probe is not None else None
         color = frame.buffers.raster_color
-        self.shade(self.scene, frame.camera, frame.gbuffer, color, frame.timer, maps, probe, frame.raster_rows)
+        sums = self._meter_rows(frame)
+        self.shade(self.scene, frame.camera, frame.gbuffer, color, frame.timer, maps, probe, frame.raster_rows, sums)
+        frame.metered_rows = MeteredRows(color, *sums) if sums is not None else None
+
+    def _meter_rows(self, frame: FrameContext) -> tuple[wp.array, wp.array] | None:
+        """The row sums the row loop meters this frame's layer into, or None where it does
+        not: without ``meter``, on CUDA (a launch item a pixel), where shadow maps or a
+        probe take the per-pixel kernel, and where only some rows are drawn."""
+        if not (self.meter and self.launcher.device.is_cpu and frame.raster_rows is None):
+            return None
+        if self.shadow_maps is not None or self.probe is not None:
+            return None
+        h = frame.gbuffer.height
+        if self._sums is None or self._sums[0].shape[0] != h:
+            dev = self.launcher.device
+            self._sums = (wp.zeros(h, dtype=wp.float64, device=dev), wp.zeros(h, dtype=wp.int32, device=dev))
+        return self._sums
 
     def shade(
         self,
@@ -206,10 +239,13 @@ class DeferredLighting(RenderPass):
         maps: ShadowMapsGPU | None = None,
         probe: ProbeGPU | None = None,
         rows: RowSpan | None = None,
+        sums: tuple[wp.array, wp.array] | None = None,
     ) -> None:
         """Write the linear radiance of every pixel (of ``rows``, default every row), (H, W)
         vec3, into ``color_out`` (each light's direct term times its visibility in ``maps``
-        when given, the glossy ambient from ``probe`` when given)."""
+        when given, the glossy ambient from ``probe`` when given); with ``sums`` (float64
+        and int32 arrays of H, the row loop only: no maps, no probe, on the CPU) each row's
+        log-luminance sum and count as the post stage meters them (``MeteredRows``)."""
         h, w = gbuffer.height, gbuffer.width
         if tuple(color_out.shape) != (h, w) or (camera.width, camera.height) != (w, h):
             raise ValueError(
@@ -226,6 +262,8 @@ class DeferredLighting(RenderPass):
             _NO_PROBE if probe is None else probe,
             color_out if maps is None else self._direct_sums(color_out),
             color_out,
+            0 if sums is None else 1,
+            *(self._no_sums if sums is None else sums),
         ]
         with timer.stage("lighting"):
             self.launcher.launch_pixels(kernel, h, w, inputs, rows=rows)

@@ -33,6 +33,7 @@ from ..core.camera import CAMERA_RAY_CPP, CameraGPU
 from ..core.gbuffer import GBufferArrays
 from ..core.native_rows import CHUNK_CPP, STREAM_CPP, row_cpp
 from ..core.scene_gpu import FLAG_TRANSMISSIVE, AmbientGPU, SceneGPU
+from ..post.exposure import LOG_COUNTS_CPP, LOG_LUMINANCE_CPP, LOG_TERM_CPP
 from ..scene.device.environment import dome_along_lanes_cpp
 from .native_math import cpp
 
@@ -345,6 +346,34 @@ const wp::vec3* mip_texels = amb.mip_texels.data;
 """
 )
 
+# What ``lit_span`` meters with ``meter`` (the CPU's row loop, a launch item a whole row):
+# the post stage's log-luminance sum of the row (``post.kernels``: each hit pixel's Rec. 709
+# luminance, where finite, its ``log(delta + max(Y, 0))`` added in order in float64, and
+# how many), from the radiance the chunk writes, so the pass that reads the layer next
+# need not.  The luminance is the post module's expression (``exposure.LOG_LUMINANCE_CPP``)
+# without FMA contraction, as Warp's default build compiles that module, not under this
+# module's ``-ffp-contract=fast``, so the sums are its bits.
+_METER_CHUNK_CPP = f"""
+#if !defined(__CUDA_ARCH__)
+    if (meter != 0) {{
+        for (int j = 0; j < n; ++j) {{
+            if (!hit[j]) continue;
+            const wp::vec3 c(cr[j], cg[j], cb[j]);
+            // (the luminance without FMA contraction, as the post module computes it)
+            const float l = [&]() -> float {{
+#pragma clang fp contract(off)
+                {LOG_LUMINANCE_CPP}
+                return l;
+            }}();
+            if ({LOG_COUNTS_CPP}) {{
+                meter_total = wp::add(meter_total, {LOG_TERM_CPP});
+                ++meter_n;
+            }}
+        }}
+    }}
+#endif
+"""
+
 # (4) of ``lit_span``: what the dome gives each pixel of the chunk, then its radiance.
 # Under a direction-free dome (``ambient.direction_free``) one irradiance ``e_free`` and
 # one radiance ``sky`` for every pixel; otherwise ``dome_terms_cpp``'s.  Then (d) across
@@ -394,7 +423,7 @@ _RADIANCE_CPP = f"""
         else radiance(true, false, false);
     }}
     wh_write_floats((float*)(out + xs), 3, n, cr, cg, cb, nullptr);
-"""
+{_METER_CHUNK_CPP}"""
 
 # A chunk of background pixels alone (most of a row that sees the sky) takes only the
 # dome along each camera ray (``environment.dome_along_lanes_cpp``, which the path kernel's
@@ -430,6 +459,18 @@ auto wh_pixel_ray = [&](const float px, const float py) WH_INLINE -> wp::vec3 {{
 {CAMERA_RAY_CPP}
     return ray;
 }};
+"""
+
+
+# The row's metered sum and count (with ``meter``), stored as the post stage's sums leave
+# them: zero where no pixel counts, else 0 + the sum (its atomic add into a zeroed row).
+_METER_ROW_CPP = """
+#if !defined(__CUDA_ARCH__)
+if (meter != 0) {
+    meter_sum.data[y] = meter_n > 0 ? wp::add(0.0, meter_total) : 0.0;
+    meter_count.data[y] = meter_n;
+}
+#endif
 """
 
 
@@ -477,6 +518,8 @@ const auto optics = (decltype(gb.optics.data))((char*)gb.optics.data + (size_t)y
 wp::vec3* out = {row_cpp("target", "y", "wp::vec3", const=False)};
 const bool dome = scene.environment.enabled != 0;
 const wp::vec3 eye = cam.origin;
+{"double meter_total = 0.0;" if lit else ""}
+{"int meter_n = 0;" if lit else ""}
 {LANE_ARRAYS_CPP}{lit_rows}
 for (int xs = x0; xs < x1; xs += CHUNK) {{
     const int n = x1 - xs < CHUNK ? x1 - xs : CHUNK;{_BACKGROUND_CHUNK_CPP if lit else ""}
@@ -486,6 +529,7 @@ for (int xs = x0; xs < x1; xs += CHUNK) {{
     }}
 {shade}}}
 {"WH_STREAM_FENCE();" if lit else ""}
+{_METER_ROW_CPP if lit else ""}
 """
     )
 
@@ -518,6 +562,9 @@ def lit_span(
     target: wp.array2d(dtype=wp.vec3),
     lights_begin: int,
     lights_end: int,
+    meter: int,
+    meter_sum: wp.array(dtype=wp.float64),
+    meter_count: wp.array(dtype=wp.int32),
     y: int,
     x0: int,
     x1: int,

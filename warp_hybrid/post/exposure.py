@@ -17,9 +17,21 @@ from __future__ import annotations
 
 import warp as wp
 
+from ..core.constants import LUMA_709_CPP
+from ..core.native_rows import float_literal
+
 KEY_VALUE = 0.18
 LOG_DELTA = 1.0e-4
 EV_LIMIT = 24.0
+FLOAT_MAX = 3.4028234663852886e38
+
+#: C++ of what a metered pixel adds, given its colour ``c`` (a ``wp::vec3``): ``l`` its
+#: Rec. 709 luminance, ``LOG_COUNTS_CPP`` whether it counts (finite), ``LOG_TERM_CPP`` its
+#: float64 term ``log(delta + max(l, 0))``: one text for every metering (the post stage's
+#: pass and the lighting row loop's, ``lighting.direct_rows``), so their sums agree.
+LOG_LUMINANCE_CPP = f"const float l = {LUMA_709_CPP};"
+LOG_COUNTS_CPP = f"wp::abs(l) <= {float_literal(FLOAT_MAX)}"
+LOG_TERM_CPP = f"(double)wp::log(wp::add({float_literal(LOG_DELTA)}, wp::max(l, 0.0f)))"
 
 _KEY_VALUE_F64 = wp.constant(wp.float64(KEY_VALUE))
 _EV_LIMIT_F64 = wp.constant(wp.float64(EV_LIMIT))

@@ -15,16 +15,13 @@ local types, which Warp resolves from evaluated annotations."""
 
 import warp as wp
 
-from ..core.constants import LUMA_709_CPP
-from ..core.native_rows import CHUNK_CPP, float_literal, row_cpp
+from ..core.native_rows import CHUNK_CPP, row_cpp
 from .aa import LUMA_OF_CODES_CPP, fxaa_edge_pixels, fxaa_edge_span
 from .color import SRGB_QUANTIZE_CPP, Srgb8Encoder
-from .exposure import LOG_DELTA, Exposure, exposure_from_log_sum, pairwise_sum
+from .exposure import LOG_COUNTS_CPP, LOG_LUMINANCE_CPP, LOG_TERM_CPP, Exposure, exposure_from_log_sum, pairwise_sum
 from .tonemap import CHANNEL_CPP
 
 wp.set_module_options({"enable_backward": False})
-
-FLOAT_MAX = 3.4028234663852886e38
 
 MASK_NONE = "none"
 MASK_BOOL = "bool"
@@ -61,13 +58,14 @@ for (int xs = x0; xs < x1; xs += CHUNK) {{
     for (int j = 0; j < n; ++j) {{
         const int x = xs + j;
         const wp::vec3 c = row[x];
-        const float l = {LUMA_709_CPP};
+        {LOG_LUMINANCE_CPP}
         lum[j] = l;
-        take[j] = wp::abs(l) <= {float_literal(FLOAT_MAX)} && {_MASK_TAKES_CPP[mask_kind]};  // (finite, selected)
+        take[j] = {LOG_COUNTS_CPP} && {_MASK_TAKES_CPP[mask_kind]};  // (finite, selected)
     }}
     for (int j = 0; j < n; ++j) {{
         if (take[j]) {{
-            total = wp::add(total, (double)wp::log(wp::add({float_literal(LOG_DELTA)}, wp::max(lum[j], 0.0f))));
+            const float l = lum[j];
+            total = wp::add(total, {LOG_TERM_CPP});
             ++count;
         }}
     }}

@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
-from ..core.passes import FrameContext, RenderPass
+from ..core.passes import FrameContext, MeteredRows, RenderPass
 from ..core.rows import NO_ROWS, RowSpan, span_clip, span_grow
 from ..parallel import FEW_BANDS_PER_THREAD, Launcher
 from ..timing import StageTimer
@@ -54,6 +54,7 @@ class PostProcess(RenderPass):
         self.antialias = antialias
         self._buffers: dict[str, wp.array] = {}
         self._exposure_from_rows: wp.Launch | None = None  # (made with the buffers)
+        self._row_exposures: dict[tuple, wp.Launch] = {}  # (``exposure_from_rows``'s, by its rows)
         self._encoder = make_srgb8_encoder(launcher.device)
         self._luma_lut = wp.array(luma_table(), dtype=wp.vec3, device=launcher.device)
         self._exposure = wp.zeros(1, dtype=Exposure, device=launcher.device)  # EV 0 until a frame runs
@@ -135,6 +136,25 @@ class PostProcess(RenderPass):
         )
         self._exposure_from_rows.launch()
 
+    def exposure_from_rows(self, row_sum: wp.array, row_count: wp.array) -> None:
+        """Set ``exposure`` to the automatic EV of log-luminance sums already summed per
+        row (float64 ``row_sum``, int32 ``row_count``, one per row: ``MeteredRows``), on the
+        device, in the order ``auto_exposure`` sums its own rows (so the same rows give
+        the same EV)."""
+        self._drawn = None
+        key = (row_sum.ptr, row_count.ptr, row_sum.shape, row_count.shape)
+        launch = self._row_exposures.get(key)
+        if launch is None:
+            launch = wp.launch(
+                exposure_from_rows,
+                dim=1,
+                inputs=[row_sum, row_count, 2.0, self._exposure],
+                device=self.launcher.device,
+                record_cmd=True,
+            )
+            self._row_exposures = {key: launch}  # (one layer's rows at a time)
+        launch.launch()
+
     def set_exposure(self, ev: float) -> None:
         """Set ``exposure`` to the fixed ``ev`` (scale ``2**ev`` from the host)."""
         self._drawn = None
@@ -145,9 +165,11 @@ class PostProcess(RenderPass):
         """Post-process ``frame``'s colour into ``frame.image`` (a device array), the
         automatic exposure metered on ``frame.buffers.metered`` at the G-buffer's hit
         pixels (kept from the last frame where that is the raster layer and the frame
-        kept it, ``FrameContext.raster_cached``: the same layer meters the same EV)."""
+        kept it, ``FrameContext.raster_cached``: the same layer meters the same EV; from
+        ``FrameContext.metered_rows`` where the pass that wrote that layer metered it)."""
         b = frame.buffers
         keep = frame.raster_cached and b.metered is b.raster_color
+        rows = frame.metered_rows
         frame.image = self.process(
             b.color,
             self.exposure_ev,
@@ -159,6 +181,7 @@ class PostProcess(RenderPass):
             keep_exposure=keep,
             changed_rows=frame.changed_rows,
             changed_cols=frame.changed_cols,
+            metered_rows=rows if rows is not None and rows.layer is b.metered else None,
         )
 
     def process(
@@ -173,6 +196,7 @@ class PostProcess(RenderPass):
         keep_exposure: bool = False,
         changed_rows: RowSpan | None = None,
         changed_cols: RowSpan | None = None,
+        metered_rows: MeteredRows | None = None,
     ) -> wp.array:
         """Expose ``color`` ((H, W) vec3, linear) by ``2**exposure_ev`` (None: automatic,
         key 0.18 over the log-average luminance of ``metered``, default ``color``
@@ -187,7 +211,8 @@ class PostProcess(RenderPass):
         caller knows ``metered`` and the mask are the last call's).
         ``changed_rows``, ``changed_cols`` (first, stop): the only rows and columns of
         ``color`` that can differ from the last call's ``color`` (module docstring; None:
-        any)."""
+        any).  ``metered_rows``: ``metered``'s log-luminance sums at ``hit_mask``'s pixels,
+        already summed per row (the automatic exposure then sums those alone)."""
         if tonemap not in TONEMAPS:
             raise ValueError(f"unknown tone mapping {tonemap!r}; choose one of {', '.join(TONEMAPS)}")
         if not color.is_contiguous:
@@ -214,11 +239,12 @@ class PostProcess(RenderPass):
                 cols = span_clip(changed_cols, w)
         self._drawn = None  # until this call is done
         with timer.stage("tonemap"):
-            if exposure_ev is None:
-                if not keep_exposure:
-                    self.auto_exposure(color if metered is None else metered, hit_mask)
-            else:
+            if exposure_ev is not None:
                 self.set_exposure(exposure_ev)
+            elif metered_rows is not None and not keep_exposure:
+                self.exposure_from_rows(metered_rows.row_sum, metered_rows.row_count)
+            elif not keep_exposure:
+                self.auto_exposure(color if metered is None else metered, hit_mask)
             inputs = [color, self._exposure, self._encoder, buffers["ldr"], self._luma_lut, buffers["luma"], *cols]
             self.launcher.launch_pixels(
                 TONEMAP_KERNELS[(tonemap, aa)], h, w, inputs, rows=rows, bands_per_thread=FEW_BANDS_PER_THREAD

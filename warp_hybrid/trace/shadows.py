@@ -84,14 +84,75 @@ def crossing_transmittance(scene: SceneGPU, face: int, u: float, v: float, d: wp
     return transmission_tint(h) * (1.0 - f)
 
 
+@wp.struct
+class LayerCrossing:
+    """One layer of the ordered walk crossed: the transmittance after it, where the walk
+    goes on from and how far it may still go; ``going`` False where the walk ends here
+    (``transmittance`` then its answer: zero where the layer blocks)."""
+
+    transmittance: wp.vec3
+    origin: wp.vec3
+    remaining: float
+    going: bool
+
+
+def _make_crossing_func(cutouts: bool):
+    """``cross_layer(scene, occ, hit_face, u, v, normal, o, d, max_t, t)``: the ordered
+    walk's step over the special BVH's hit ``hit_face`` (its face index there; barycentrics
+    ``u, v``, face ``normal``) of the ray ``o + s d``, ``s < max_t``, that kept ``t`` so
+    far: a cut-out hole passes, a cut-out's solid part or an opaque surface blocks, a
+    transmissive or blended one multiplies in what it lets through; the walk goes on just
+    past the hit."""
+
+    @wp.func
+    def cross_layer(
+        scene: SceneGPU,
+        occ: OccluderGPU,
+        hit_face: int,
+        u: float,
+        v: float,
+        normal: wp.vec3,
+        o: wp.vec3,
+        d: wp.vec3,
+        max_t: float,
+        t: wp.vec3,
+    ) -> LayerCrossing:
+        out = LayerCrossing()
+        out.transmittance = wp.vec3(0.0, 0.0, 0.0)
+        out.going = False
+        face = occ.special_faces[hit_face]
+        m = scene.materials[scene.triangle_material[face]]
+        passes = False
+        if wp.static(cutouts):
+            if (m.flags & FLAG_CUTOUT) != 0:
+                if not is_cut_away(scene, face, u, v):
+                    return out
+                passes = True
+        kept = t
+        if not passes:
+            if (m.flags & (FLAG_TRANSMISSIVE | FLAG_BLENDED)) == 0:
+                return out
+            kept = wp.cw_mul(t, crossing_transmittance(scene, face, u, v, d))
+            if max3(kept) <= 0.0:
+                return out
+        out.transmittance = kept
+        out.origin = step_past(scene, face, u, v, normal, d)
+        out.remaining = max_t - wp.dot(out.origin - o, d)
+        out.going = not (out.remaining <= 0.0)
+        return out
+
+    return cross_layer
+
+
 def _make_walk_func(cutouts: bool, wide: bool):
     """``layered_transmittance(scene, occ, o, d, max_t)``: the ordered walk through the
     transmissive, cut-out and emissive surfaces of the special BVH (``wide``: its 4-wide
     copy) of a ray the opaque triangles do not block."""
 
+    cross_layer = _make_crossing_func(cutouts)
+
     @wp.func
     def layered_transmittance(scene: SceneGPU, occ: OccluderGPU, o: wp.vec3, d: wp.vec3, max_t: float) -> wp.vec3:
-        zero = wp.vec3(0.0, 0.0, 0.0)
         t = wp.vec3(1.0, 1.0, 1.0)
         if occ.special == wp.uint64(0):
             return t
@@ -104,24 +165,12 @@ def _make_walk_func(cutouts: bool, wide: bool):
                 q = wp.mesh_query_ray(occ.special, origin, d, remaining)
             if not q.result:
                 return t
-            face = occ.special_faces[q.face]
-            m = scene.materials[scene.triangle_material[face]]
-            passes = False
-            if wp.static(cutouts):
-                if (m.flags & FLAG_CUTOUT) != 0:
-                    if not is_cut_away(scene, face, q.u, q.v):
-                        return zero
-                    passes = True
-            if not passes:
-                if (m.flags & (FLAG_TRANSMISSIVE | FLAG_BLENDED)) == 0:
-                    return zero
-                t = wp.cw_mul(t, crossing_transmittance(scene, face, q.u, q.v, d))
-                if max3(t) <= 0.0:
-                    return zero
-            origin = step_past(scene, face, q.u, q.v, q.normal, d)
-            remaining = max_t - wp.dot(origin - o, d)
-            if remaining <= 0.0:
+            c = cross_layer(scene, occ, q.face, q.u, q.v, q.normal, o, d, max_t, t)
+            t = c.transmittance
+            if not c.going:
                 return t
+            origin = c.origin
+            remaining = c.remaining
         return t
 
     return layered_transmittance
@@ -335,6 +384,8 @@ def _make_packet_walk_func(cutouts: bool):
     the single walk gives it: rays toward one light from neighbouring pixels cross the
     same layers through the same nodes."""
 
+    cross_layer = _make_crossing_func(cutouts)
+
     @wp.func
     def packet_transmittance(
         scene: SceneGPU, occ: OccluderGPU, o: _group_vec3s, d: _group_vec3s, max_t: _group_floats, walking: int
@@ -357,30 +408,12 @@ def _make_packet_walk_func(cutouts: bool):
                     q = hit_from_row(hits[j])
                     stop = not q.result
                     if not stop:
-                        face = occ.special_faces[q.face]
-                        m = scene.materials[scene.triangle_material[face]]
-                        passes = False
-                        if wp.static(cutouts):
-                            if (m.flags & FLAG_CUTOUT) != 0:
-                                if not is_cut_away(scene, face, q.u, q.v):
-                                    out[j] = wp.vec3(0.0, 0.0, 0.0)
-                                    stop = True
-                                passes = True
-                        if not passes:
-                            if (m.flags & (FLAG_TRANSMISSIVE | FLAG_BLENDED)) == 0:
-                                out[j] = wp.vec3(0.0, 0.0, 0.0)
-                                stop = True
-                            else:
-                                t = wp.cw_mul(out[j], crossing_transmittance(scene, face, q.u, q.v, d[j]))
-                                out[j] = t
-                                if max3(t) <= 0.0:
-                                    out[j] = wp.vec3(0.0, 0.0, 0.0)
-                                    stop = True
+                        c = cross_layer(scene, occ, q.face, q.u, q.v, q.normal, o[j], d[j], max_t[j], out[j])
+                        out[j] = c.transmittance
+                        stop = not c.going
                         if not stop:
-                            origin[j] = step_past(scene, face, q.u, q.v, q.normal, d[j])
-                            remaining[j] = max_t[j] - wp.dot(origin[j] - o[j], d[j])
-                            if remaining[j] <= 0.0:
-                                stop = True
+                            origin[j] = c.origin
+                            remaining[j] = c.remaining
                     if stop:
                         live = live & ~(1 << j)
                         remaining[j] = 0.0

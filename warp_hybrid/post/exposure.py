@@ -6,8 +6,10 @@ over the hit pixels (Y the Rec. 709 luminance of the linear colour, ``delta`` ke
 black pixels finite), so the log-average lands on middle grey, ``key = 0.18``.
 
 The output stage never reads the exposure back during a frame: it sums the logs on
-the device per row (``kernels.LOG_LUMINANCE_KERNELS``, float64), then one device
-thread sums the rows (``pairwise_sum``, numpy's summation order) and applies
+the device per row (``kernels.LOG_LUMINANCE_KERNELS``, float64; on the CPU the lighting
+row loop sums them as it writes the raster layer, ``core.passes.MeteredRows``, from the
+same text, ``LOG_LUMINANCE_CPP`` and the two after it), then one device thread sums
+the rows (``pairwise_sum``, numpy's summation order) and applies
 ``exposure_from_log_sum`` into an ``Exposure`` record that the tone map reads.  The
 tests compare it with a numpy reference (``tests/post/exposure_reference.py``); both
 take ``KEY_VALUE``, ``LOG_DELTA`` and ``EV_LIMIT`` from here.

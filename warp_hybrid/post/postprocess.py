@@ -53,8 +53,10 @@ class PostProcess(RenderPass):
         self.tonemap = tonemap
         self.antialias = antialias
         self._buffers: dict[str, wp.array] = {}
-        self._exposure_from_rows: wp.Launch | None = None  # (made with the buffers)
-        self._row_exposures: dict[tuple, wp.Launch] = {}  # (``exposure_from_rows``'s, by its rows)
+        # ``exposure_from_rows``'s recorded launches by the rows they read (``wp.launch``'s
+        # argument packing is most of a one-thread kernel's cost): this stage's own, and the
+        # rows of the layer the lighting pass meters
+        self._row_exposures: dict[tuple, wp.Launch] = {}
         self._encoder = make_srgb8_encoder(launcher.device)
         self._luma_lut = wp.array(luma_table(), dtype=wp.vec3, device=launcher.device)
         self._exposure = wp.zeros(1, dtype=Exposure, device=launcher.device)  # EV 0 until a frame runs
@@ -86,15 +88,6 @@ class PostProcess(RenderPass):
                 "row_count": wp.zeros(height, dtype=wp.int32, device=dev),
                 "no_mask": wp.zeros((1, 1), dtype=wp.bool, device=dev),
             }
-            # the rows' sums into the exposure: one recorded launch for these buffers
-            # (``wp.launch``'s argument packing is most of a one-thread kernel's cost)
-            self._exposure_from_rows = wp.launch(
-                exposure_from_rows,
-                dim=1,
-                inputs=[self._buffers["row_sum"], self._buffers["row_count"], 2.0, self._exposure],
-                device=dev,
-                record_cmd=True,
-            )
         return self._buffers
 
     def _mask(self, hit_mask: np.ndarray | wp.array | None, shape: tuple[int, int]) -> tuple[str, wp.array]:
@@ -134,7 +127,7 @@ class PostProcess(RenderPass):
             [color, mask, buffers["row_sum"], buffers["row_count"]],
             bands_per_thread=FEW_BANDS_PER_THREAD,
         )
-        self._exposure_from_rows.launch()
+        self.exposure_from_rows(buffers["row_sum"], buffers["row_count"])
 
     def exposure_from_rows(self, row_sum: wp.array, row_count: wp.array) -> None:
         """Set ``exposure`` to the automatic EV of log-luminance sums already summed per
@@ -145,14 +138,15 @@ class PostProcess(RenderPass):
         key = (row_sum.ptr, row_count.ptr, row_sum.shape, row_count.shape)
         launch = self._row_exposures.get(key)
         if launch is None:
-            launch = wp.launch(
+            if len(self._row_exposures) >= 2:  # (after a resize: the old rows' go)
+                self._row_exposures.clear()
+            launch = self._row_exposures[key] = wp.launch(
                 exposure_from_rows,
                 dim=1,
                 inputs=[row_sum, row_count, 2.0, self._exposure],
                 device=self.launcher.device,
                 record_cmd=True,
             )
-            self._row_exposures = {key: launch}  # (one layer's rows at a time)
         launch.launch()
 
     def set_exposure(self, ev: float) -> None:

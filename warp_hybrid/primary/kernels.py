@@ -49,7 +49,7 @@ import warp as wp
 from ..core.camera import CAMERA_RAY_CPP, CameraGPU, pixel_ray
 from ..core.constants import LUMA_709_CPP, luma709
 from ..core.gbuffer import BACKGROUND, GBufferRows, Optics
-from ..core.native_rows import CHUNK_CPP, LAMBDA_HEADER_CPP, STREAM_CPP
+from ..core.native_rows import CHUNK_CPP, LAMBDA_HEADER_CPP, STREAM_CPP, WIDE_VECTOR_CPU_FLAGS
 from ..core.pixel_list import listed_pixel
 from ..core.scene_gpu import FLAG_VERTEX_COLOR, SceneGPU
 from ..scene.device.surface import SURFACE_CPP, UV_FOOTPRINT_CPP, is_cut_away, samples_textures, surface_at_grad
@@ -60,7 +60,7 @@ from .cover_batch import BATCH_TRIANGLES, cover_batch
 from .coverage import EMPTY_KEY, RasterTarget, raster_triangle
 from .hit_record import EXACT_HIT_CPP, exact_hit, pixel_footprint, sample_steps
 
-wp.set_module_options({"enable_backward": False})
+wp.set_module_options({"enable_backward": False, "cpu_compiler_flags": WIDE_VECTOR_CPU_FLAGS})
 
 # Ray-cast path: at most this many cut-away hits are stepped past per pixel.
 MAX_CUTOUT_LAYERS = wp.constant(32)

@@ -43,7 +43,11 @@ def median_ms(fn: Callable[[], dict[str, float]], repeats: int = 5, warmup: int 
     return the per-stage medians."""
     for _ in range(warmup):
         fn()
-    runs = [fn() for _ in range(repeats)]
+    return _stage_medians([fn() for _ in range(repeats)])
+
+
+def _stage_medians(runs: Sequence[dict[str, float]]) -> dict[str, float]:
+    """Each stage's median over ``runs`` (ms per stage, every run the same stages)."""
     return {k: statistics.median(r[k] for r in runs) for k in runs[0]}
 
 
@@ -67,7 +71,7 @@ def interleaved_medians(
             time.sleep(settle_s)
             fns[i]()
             runs[i].append(fns[i]())
-    return [{k: statistics.median(run[k] for run in fn_runs) for k in fn_runs[0]} for fn_runs in runs]
+    return [_stage_medians(fn_runs) for fn_runs in runs]
 
 
 def peak_rss_mb() -> float:

@@ -235,6 +235,17 @@ def band_table(
     return table
 
 
+def _kept(cache: dict[tuple, Any], key: tuple, make: Callable[[], Any]) -> Any:
+    """``cache[key]``, made by ``make()`` the first time it is asked for; a cache that holds
+    ``KEPT_TABLES`` entries starts again."""
+    value = cache.get(key)
+    if value is None:
+        if len(cache) >= KEPT_TABLES:
+            cache.clear()
+        value = cache[key] = make()
+    return value
+
+
 class BandLaunch:
     """The launches of one pass's bands of ``kernel``: its leading ``inputs`` (the same
     for every band; a callable gives them per thread ``slot``) are packed once per thread
@@ -389,16 +400,14 @@ class Launcher:
             return
 
         per_thread = BANDS_PER_THREAD if self._bands is not None else bands_per_thread
-        shape = (first, count, width, per_thread)
-        launches = self._pixel_bands.get(shape)
-        if launches is None:
+
+        def launches() -> list[Launch]:
             bands = band_count(count, self.threads, MIN_BAND_ROWS, per_thread)
-            spans = [band(k, bands, count) for k in range(bands)]
-            launches = [((rows, 1), (first + row0, 1, width)) for row0, rows in spans]
-            if len(self._pixel_bands) >= KEPT_TABLES:
-                self._pixel_bands.clear()
-            self._pixel_bands[shape] = launches
-        self.launch_bands(kernel, inputs, launches)
+            return [
+                ((rows, 1), (first + row0, 1, width)) for row0, rows in (band(k, bands, count) for k in range(bands))
+            ]
+
+        self.launch_bands(kernel, inputs, _kept(self._pixel_bands, (first, count, width, per_thread), launches))
 
     def launch_items(
         self, kernel: wp.Kernel, count: int, inputs: Sequence[Any], min_band_items: int = MIN_BAND_ITEMS
@@ -611,13 +620,7 @@ class Launcher:
         """The band table of an untimed one-stage pass cut into ``bands``: the one built
         for the same bands before (nothing reads its written-back columns), else a new
         one, kept."""
-        key = tuple(bands)
-        table = self._tables.get(key)
-        if table is None:
-            if len(self._tables) >= KEPT_TABLES:
-                self._tables.clear()
-            table = self._tables[key] = band_table([[launch] for launch in bands], None, None)
-        return table
+        return _kept(self._tables, tuple(bands), lambda: band_table([[launch] for launch in bands], None, None))
 
     def _native_pass(
         self,

@@ -20,6 +20,11 @@ CHUNK_CPU = 64
 #: default otherwise (``-march=native``, or ``wp.config.cpu_compiler_flags``).
 WIDE_VECTOR_CPU_FLAGS = f"{wp.config.cpu_compiler_flags or '-march=native'} -mprefer-vector-width=512"
 
+#: The CPU compiler flags of a module whose floating-point products and sums fuse into
+#: FMAs across statements (as CUDA's compiler fuses them by default), and the macro that
+#: tells its C++ so (``wh_lerp_contracted``).
+FMA_CONTRACTION_CPU_FLAGS = "-ffp-contract=fast -DWH_FMA_CONTRACTION"
+
 #: C++: the loop's ``CHUNK``, ``CHUNK_CPU`` on the CPU and one on CUDA (where a launch item
 #: is one pixel).
 CHUNK_CPP = f"""
@@ -33,7 +38,7 @@ constexpr int CHUNK = {CHUNK_CPU};
 #: C++ every snippet of native lambdas starts with: ``WH_INLINE``, the attribute that forces
 #: them inline on the CPU (a literal argument then folds away and a row loop's body is
 #: straight-line code), two helpers that keep a loop over lanes vectorisable, and the linear
-#: blend every bilinear tap and mip blend uses.
+#: blend every bilinear tap and mip blend uses (with its contraction spelled out too).
 LAMBDA_HEADER_CPP = """
 #if !defined(WH_INLINE)
 #if defined(__CUDA_ARCH__)
@@ -49,6 +54,17 @@ auto wh_select = [&](const bool c, const wp::vec3& a, const wp::vec3& b) WH_INLI
 // a (1 - t) + b t of floats or vectors, one Warp operation a call (so nothing is fused).
 auto wh_lerp = [&](const auto& a, const auto& b, const float t) WH_INLINE {
     return wp::add(wp::mul(a, wp::sub(1.0f, t)), wp::mul(b, t));
+};
+// ``wh_lerp`` of floats as the module's FMA contraction rounds it, for a loop the compiler
+// vectorises (where it would choose afresh which product to fuse): under
+// ``FMA_CONTRACTION_CPU_FLAGS`` the first product fused into the sum, as the compiler
+// fuses the scalar ``wh_lerp``; otherwise ``wh_lerp``.
+auto wh_lerp_contracted = [&](const float a, const float b, const float t) WH_INLINE -> float {
+#if defined(WH_FMA_CONTRACTION) && !defined(__CUDA_ARCH__)
+    return __builtin_fmaf(a, wp::sub(1.0f, t), wp::mul(b, t));
+#else
+    return wh_lerp(a, b, t);
+#endif
 };
 // ``wp::normalize``'s arithmetic (a zero vector stays zero).
 auto wh_normalize = [&](const wp::vec3& a) WH_INLINE -> wp::vec3 {

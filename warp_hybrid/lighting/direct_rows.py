@@ -15,9 +15,9 @@ mixed), and (4) the sum, or in ``lit_span`` the pixel's radiance: under a dome w
 light is the same from every direction (``ambient.direction_free``: none, or an
 untextured one) from one irradiance and one radiance for the row; under a textured one
 the SH irradiance at each normal, the lat-long uvs each pixel reads, the mip levels it
-blends and each bilinear fetch's texel indices and weights vectorised too, only the
+blends and each bilinear fetch's texel indices and weights vectorised too, and the
 texel loads and their blend (the prefiltered mip chain, the dome behind glass, the
-background) lane by lane; then ``wh_surface_radiance`` with the split-sum
+background) gathered across pixels; then ``wh_surface_radiance`` with the split-sum
 ``wh_env_brdf`` across pixels again.  The same lambdas as the scalar functions, so the same arithmetic; in
 ``direct_span`` background pixels get a value the caller ignores.  The loop's pieces
 (the lane arrays, a lane's fill, steps (2) and (3) with their diffuse colour and sum
@@ -34,7 +34,7 @@ from ..core.gbuffer import GBufferArrays
 from ..core.native_rows import CHUNK_CPP, STREAM_CPP, row_cpp
 from ..core.scene_gpu import FLAG_TRANSMISSIVE, AmbientGPU, SceneGPU
 from ..post.exposure import LOG_COUNTS_CPP, LOG_LUMINANCE_CPP, LOG_TERM_CPP
-from ..scene.device.environment import dome_along_lanes_cpp
+from ..scene.device.environment import dome_along_lanes_cpp, texel_gather_cpp
 from .native_math import cpp
 
 #: (1) the lane arrays of a chunk: point, normal, view direction, albedo, diffuse colour,
@@ -158,29 +158,6 @@ _FETCH_ARRAYS_CPP = "\n".join(
 )
 
 
-def _fetch_cpp(fetch: str, wanted: str, on_dome: str) -> str:
-    """C++ of (4b) for one fetch: for the lanes where ``wanted`` (a C++ condition on lane
-    ``j``) its bilinear value (``wh_bilinear_blend`` of its footprint's four texels), from
-    the dome's texels (vec4) where ``on_dome`` (a condition on ``j``), else from the mip
-    chain's (vec3); zero for the other lanes."""
-    f = fetch
-    return f"""
-        for (int j = 0; j < n; ++j) {{
-            wp::vec3 value(0.0f);
-            if ({wanted}) {{
-                if ({on_dome}) {{
-                    const wp::vec4 t = wh_bilinear_blend(dome_texels[{f}00[j]], dome_texels[{f}01[j]],
-                                                         dome_texels[{f}10[j]], dome_texels[{f}11[j]], {f}x[j], {f}y[j]);
-                    value = wp::vec3(t[0], t[1], t[2]);
-                }} else {{
-                    value = wh_bilinear_blend(mip_texels[{f}00[j]], mip_texels[{f}01[j]], mip_texels[{f}10[j]],
-                                              mip_texels[{f}11[j]], {f}x[j], {f}y[j]);
-                }}
-            }}
-            {f}c[0][j] = value[0]; {f}c[1][j] = value[1]; {f}c[2][j] = value[2];
-        }}"""
-
-
 def dome_terms_cpp(raster: bool) -> str:
     """C++ of (4a-c): what a textured dome gives each lane of the chunk (an untextured one
     is direction-free: ``lit_span`` takes its one value for the row instead).
@@ -191,12 +168,12 @@ def dome_terms_cpp(raster: bool) -> str:
     lobe's level of detail (``wh_prefilter_lod``), the level ``fa`` reads and whether it
     blends with a second value (the next level ``fb``, or past the chain's top the SH
     irradiance) and by what weights, and each fetch's footprint (every lane's, as the loop
-    has no branches); (b) lane by lane only the loads of the fetches a lane uses and their
-    bilinear blend; (c) across lanes the looked-up radiance into ``sr, sg, sb`` (the dome's
+    has no branches); (b) the loads of the fetches a lane uses and their bilinear blend,
+    gathered across lanes (``environment.texel_gather_cpp``); (c) across lanes the looked-up radiance into ``sr, sg, sb`` (the dome's
     colour, scale and bias on level 0's values, the blend of the two values); and with
     ``raster``, in a chunk with a transmissive pixel (``glass_lanes``), the dome straight
     behind each glass pixel (what glass lets through) into ``tr, tg, tb``, its uv and
-    footprint across lanes, its loads lane by lane.  ``hit[j]``: the lane reads the
+    footprint across lanes, its loads gathered.  ``hit[j]``: the lane reads the
     lobe at its surface's mirror direction; a lane that is not one reads level 0 along its
     camera ray with ``raster``, nothing without (its values are not used; a chunk without
     a lane that reads the lobe then takes the irradiance alone, its radiance zero).  The same
@@ -215,7 +192,7 @@ def dome_terms_cpp(raster: bool) -> str:
             wh_latlong_footprint(dome_offset, dome_width, dome_height, behind, ft00[j], ft01[j], ft10[j], ft11[j],
                                  ftx[j], fty[j]);
         }}
-{_fetch_cpp("ft", "glass[j] && textured", "true")}
+{texel_gather_cpp("ft", "n", "glass[j] && textured", "dome_texel_floats")}
         for (int j = 0; j < n; ++j) {{
             const wp::vec3 b(ftc[0][j], ftc[1][j], ftc[2][j]);
             const wp::vec3 behind = textured ? wh_dome_scaled(env, *dome_texture, b) : env.color;
@@ -296,8 +273,8 @@ def dome_terms_cpp(raster: bool) -> str:
         wh_latlong_footprint(amb.mip_offset.data[kb], amb.mip_width.data[kb], amb.mip_height.data[kb], uv, fb00[j],
                              fb01[j], fb10[j], fb11[j], fbx[j], fby[j]);
     }}
-{_fetch_cpp("fa", first_wanted, "level[j] == 0")}
-{_fetch_cpp("fb", "two_levels[j]", "false")}
+{texel_gather_cpp("fa", "n", first_wanted, "dome_texel_floats", "mip_texel_floats", "level[j] == 0")}
+{texel_gather_cpp("fb", "n", "two_levels[j]", "dome_texel_floats", "mip_texel_floats", "false")}
     for (int j = 0; j < n; ++j) {{
         const wp::vec3 a(fac[0][j], fac[1][j], fac[2][j]);
         const wp::vec3 on_dome = textured ? wh_dome_scaled(env, *dome_texture, a) : env.color;
@@ -341,8 +318,8 @@ const int dome_offset = textured ? dome_texture->offset : 0;
 const int dome_width = textured ? dome_texture->width : 1;
 const int dome_height = textured ? dome_texture->height : 1;
 const float top = (float)amb.levels;
-const wp::vec4* dome_texels = scene.texels.data;
-const wp::vec3* mip_texels = amb.mip_texels.data;
+const float* dome_texel_floats = (const float*)scene.texels.data;
+const float* mip_texel_floats = (const float*)amb.mip_texels.data;
 """
 )
 

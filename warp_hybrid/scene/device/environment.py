@@ -227,32 +227,80 @@ auto wh_environment_radiance = [&](const auto& env, const auto& textures, const 
 ENVIRONMENT_CPP = LAMBDA_HEADER_CPP + ENVIRONMENT_LAMBDAS_CPP
 
 
+def texel_gather_cpp(
+    footprint: str, lanes: str, wanted: str, dome: str, mips: str = "nullptr", on_dome: str = "true"
+) -> str:
+    """C++ (a block): for lanes ``0 <= j < lanes`` where ``wanted`` (a condition on ``j``),
+    the bilinear value of footprint ``footprint`` (the lane arrays ``{footprint}00`` ..
+    ``{footprint}11``, ``{footprint}x``, ``{footprint}y`` that ``wh_latlong_footprint``
+    fills) into ``{footprint}c[k][j]``, its three channels (zero where not wanted): each of
+    the four texels' first three channels blended as ``wh_bilinear_blend`` blends them
+    (``wh_lerp_contracted``: the same bits under the module's contraction), from
+    ``dome`` (a ``const float*`` over vec4 texels) where ``on_dome`` (a condition on ``j``),
+    else from ``mips`` (over vec3 texels).  Each load is a conditional read of a flat float
+    array, so the compiler gathers them across the lanes; a block whose wanted lanes all
+    read one source reads that one alone."""
+    f = footprint
+    return f"""
+    {{
+        int dome_lanes = 0, mip_lanes = 0;
+        for (int j = 0; j < {lanes}; ++j) {{
+            const bool wanted = {wanted};
+            const bool on_dome = {on_dome};
+            dome_lanes += wanted && on_dome ? 1 : 0;
+            mip_lanes += wanted && !on_dome ? 1 : 0;
+        }}
+        const float* dome_floats = {dome};
+        const float* mip_floats = {mips};
+        auto gather = [&](const bool dome_source, const bool mip_source) WH_INLINE {{
+            #pragma clang loop vectorize(assume_safety)
+            for (int j = 0; j < {lanes}; ++j) {{
+                const bool wanted = {wanted};
+                const bool on_dome = {on_dome};
+                const bool from_dome = dome_source && wanted && on_dome;
+                const bool from_mips = mip_source && wanted && !on_dome;
+                const int t00 = {f}00[j], t01 = {f}01[j], t10 = {f}10[j], t11 = {f}11[j];
+                const float fx = {f}x[j], fy = {f}y[j];
+                for (int k = 0; k < 3; ++k) {{
+                    const float a00 = from_dome ? dome_floats[4 * t00 + k] : (from_mips ? mip_floats[3 * t00 + k] : 0.0f);
+                    const float a01 = from_dome ? dome_floats[4 * t01 + k] : (from_mips ? mip_floats[3 * t01 + k] : 0.0f);
+                    const float a10 = from_dome ? dome_floats[4 * t10 + k] : (from_mips ? mip_floats[3 * t10 + k] : 0.0f);
+                    const float a11 = from_dome ? dome_floats[4 * t11 + k] : (from_mips ? mip_floats[3 * t11 + k] : 0.0f);
+                    const float value = wh_lerp_contracted(wh_lerp_contracted(a00, a01, fx), wh_lerp_contracted(a10, a11, fx), fy);
+                    {f}c[k][j] = wanted ? value : 0.0f;
+                }}
+            }}
+        }};
+        if (mip_lanes == 0) gather(true, false);
+        else if (dome_lanes == 0) gather(false, true);
+        else gather(true, true);
+    }}"""
+
+
 def dome_along_lanes_cpp(size: str, lanes: str, direction: str, wanted: str, store: str) -> str:
     """C++ (a block, after ``ENVIRONMENT_LAMBDAS_CPP``, given ``scene`` and its dome ``env``,
     which must have a texture): the dome's radiance along each lane's direction, lanes
     ``0 <= j < lanes`` (at most ``size``, a C++ constant): ``direction`` (a C++ expression of
     lane ``j``'s world direction, any length) to its lat-long uv and bilinear footprint
-    across the lanes, a loop of plain arithmetic the compiler vectorises; then, lane by
-    lane where ``wanted`` (a condition on ``j``), the texel loads, their blend and the
-    dome's scale into ``c``, and ``store`` (a statement given ``c`` and ``j``).  The
-    arithmetic of ``wh_dome_texture_radiance``, so the same bits."""
+    across the lanes, a loop of plain arithmetic the compiler vectorises; then, where
+    ``wanted`` (a condition on ``j``), the texel loads and their blend (``texel_gather_cpp``),
+    and lane by lane the dome's scale into ``c`` and ``store`` (a statement
+    given ``c`` and ``j``).  The arithmetic of ``wh_dome_texture_radiance``, so the same
+    bits."""
     return f"""
     {{
         const auto& tex = scene.textures.data[env.texture];
         const wp::mat33 to_dome = env.world_to_light;
-        float fx[{size}], fy[{size}];
-        int i00[{size}], i01[{size}], i10[{size}], i11[{size}];
+        float gx[{size}], gy[{size}], gc[3][{size}];
+        int g00[{size}], g01[{size}], g10[{size}], g11[{size}];
         for (int j = 0; j < {lanes}; ++j) {{
             const wp::vec3 d = wp::mul(to_dome, {direction});
-            wh_latlong_footprint(tex.offset, tex.width, tex.height, wh_environment_uv(d), i00[j], i01[j], i10[j],
-                                 i11[j], fx[j], fy[j]);
-        }}
-        const wp::vec4* texels = scene.texels.data;
+            wh_latlong_footprint(tex.offset, tex.width, tex.height, wh_environment_uv(d), g00[j], g01[j], g10[j],
+                                 g11[j], gx[j], gy[j]);
+        }}{texel_gather_cpp("g", lanes, wanted, "(const float*)scene.texels.data")}
         for (int j = 0; j < {lanes}; ++j) {{
             if (!({wanted})) continue;
-            const wp::vec4 t = wh_bilinear_blend(texels[i00[j]], texels[i01[j]], texels[i10[j]], texels[i11[j]], fx[j],
-                                                 fy[j]);
-            const wp::vec3 c = wh_dome_scaled(env, tex, wp::vec3(t[0], t[1], t[2]));
+            const wp::vec3 c = wh_dome_scaled(env, tex, wp::vec3(gc[0][j], gc[1][j], gc[2][j]));
             {store}
         }}
     }}"""

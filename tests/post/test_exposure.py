@@ -3,16 +3,54 @@ bit (on the CPU), and no readback inside a frame."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 import warp as wp
 from exposure_reference import ev_from_log_sum
 
+from warp_hybrid.core.native_rows import LAMBDA_HEADER_CPP
 from warp_hybrid.parallel import Launcher
-from warp_hybrid.post.exposure import EV_LIMIT, pairwise_sum
+from warp_hybrid.post.exposure import EV_LIMIT, LOG_FLOAT_CPP, pairwise_sum
 from warp_hybrid.post.postprocess import PostProcess
 
 wp.set_module_options({"enable_backward": False})
+
+
+@wp.func_native(LAMBDA_HEADER_CPP + LOG_FLOAT_CPP + "return wh_log_float(x);")
+def _log_float(x: float) -> wp.float64:
+    """``wh_log_float(x)``."""
+    ...
+
+
+@wp.kernel
+def _log_float_kernel(x: wp.array(dtype=float), out: wp.array(dtype=wp.float64)):
+    i = wp.tid()
+    out[i] = _log_float(x[i])
+
+
+def test_metered_log_is_the_correctly_rounded_logf(device):
+    """The metering's log (``wh_log_float``) is within 5e-16 of the float64 log, and
+    rounded to float32 it is the correctly rounded log of every input: random positive
+    normal floats of every binade, the metered range's floor (``LOG_DELTA``), the edges of
+    the mantissa's range ([sqrt(1/2), sqrt(2)), where the exponent steps) and of float32,
+    and the floats next to 1."""
+    rng = np.random.default_rng(3)
+    smallest, largest = np.finfo(np.float32).tiny, np.finfo(np.float32).max
+    bits = rng.integers(np.float32(smallest).view(np.uint32), np.float32(largest).view(np.uint32), 300_000)
+    specials = np.array([smallest, largest, 1e-4, 1.0, 2.0, 0.5], np.float32)
+    centres = np.array([np.sqrt(0.5), np.sqrt(2.0), 1.0, 1e-4], np.float32).view(np.uint32).astype(np.int64)
+    neighbours = (centres[:, None] + np.arange(-3, 4)).ravel()
+    x = np.concatenate(
+        [bits.astype(np.uint32).view(np.float32), specials, neighbours.astype(np.uint32).view(np.float32)]
+    )
+    out = wp.zeros(len(x), dtype=wp.float64, device=device)
+    wp.launch(_log_float_kernel, dim=len(x), inputs=[wp.array(x, dtype=float, device=device), out], device=device)
+    got = out.numpy()
+    exact = np.array([math.log(v) for v in x.astype(np.float64)])  # (the C library's float64 log)
+    np.testing.assert_allclose(got, exact, rtol=5e-16, atol=0.0)
+    np.testing.assert_array_equal(got.astype(np.float32), exact.astype(np.float32))
 
 
 @wp.kernel

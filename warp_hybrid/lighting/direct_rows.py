@@ -33,7 +33,7 @@ from ..core.camera import CAMERA_RAY_CPP, CameraGPU
 from ..core.gbuffer import GBufferArrays
 from ..core.native_rows import CHUNK_CPP, STREAM_CPP, row_cpp
 from ..core.scene_gpu import FLAG_TRANSMISSIVE, AmbientGPU, SceneGPU
-from ..post.exposure import LOG_COUNTS_CPP, LOG_LUMINANCE_CPP, LOG_TERM_CPP
+from ..post.exposure import LOG_COUNTS_CPP, LOG_FLOAT_CPP, LOG_LUMINANCE_CPP, LOG_TERM_CPP
 from ..scene.device.environment import dome_along_lanes_cpp, texel_gather_cpp
 from .native_math import cpp
 
@@ -329,12 +329,15 @@ const float* mip_texel_floats = (const float*)amb.mip_texels.data;
 # how many), from the radiance the chunk writes, so the pass that reads the layer next
 # need not.  The luminance is the post module's expression (``exposure.LOG_LUMINANCE_CPP``)
 # without FMA contraction, as Warp's default build compiles that module, not under this
-# module's ``-ffp-contract=fast``, so the sums are its bits.
+# module's ``-ffp-contract=fast``, and its log term (``wh_log_float``) rounds each operation
+# as written in any module, so the sums are its bits.  The terms across the chunk (a loop
+# the compiler vectorises), then the counted ones added in order.
 _METER_CHUNK_CPP = f"""
 #if !defined(__CUDA_ARCH__)
     if (meter != 0) {{
+        double terms[CHUNK];
+        bool counts[CHUNK];
         for (int j = 0; j < n; ++j) {{
-            if (!hit[j]) continue;
             const wp::vec3 c(cr[j], cg[j], cb[j]);
             // (the luminance without FMA contraction, as the post module computes it)
             const float l = [&]() -> float {{
@@ -342,8 +345,12 @@ _METER_CHUNK_CPP = f"""
                 {LOG_LUMINANCE_CPP}
                 return l;
             }}();
-            if ({LOG_COUNTS_CPP}) {{
-                meter_total = wp::add(meter_total, {LOG_TERM_CPP});
+            counts[j] = hit[j] && {LOG_COUNTS_CPP};
+            terms[j] = {LOG_TERM_CPP};
+        }}
+        for (int j = 0; j < n; ++j) {{
+            if (counts[j]) {{
+                meter_total = wp::add(meter_total, terms[j]);
                 ++meter_n;
             }}
         }}
@@ -484,7 +491,7 @@ float er[CHUNK], eg[CHUNK], eb[CHUNK];"""
             "diffuse_albedo",
             *(("env_brdf", "surface_radiance", "ambient_irradiance", "prefiltered_radiance") if lit else ()),
         )
-        + (_PIXEL_RAY_CPP + STREAM_CPP if lit else "")
+        + (_PIXEL_RAY_CPP + STREAM_CPP + LOG_FLOAT_CPP if lit else "")
         + f"""
 const wp::vec3* position = {row_cpp("gb.position", "y", "wp::vec3")};
 const wp::vec3* normal = {row_cpp("gb.normal", "y", "wp::vec3")};

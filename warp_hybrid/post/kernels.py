@@ -15,10 +15,18 @@ local types, which Warp resolves from evaluated annotations."""
 
 import warp as wp
 
-from ..core.native_rows import CHUNK_CPP, row_cpp
+from ..core.native_rows import CHUNK_CPP, LAMBDA_HEADER_CPP, row_cpp
 from .aa import LUMA_OF_CODES_CPP, fxaa_edge_pixels, fxaa_edge_span
 from .color import SRGB_QUANTIZE_CPP, Srgb8Encoder
-from .exposure import LOG_COUNTS_CPP, LOG_LUMINANCE_CPP, LOG_TERM_CPP, Exposure, exposure_from_log_sum, pairwise_sum
+from .exposure import (
+    LOG_COUNTS_CPP,
+    LOG_FLOAT_CPP,
+    LOG_LUMINANCE_CPP,
+    LOG_TERM_CPP,
+    Exposure,
+    exposure_from_log_sum,
+    pairwise_sum,
+)
 from .tonemap import CHANNEL_CPP
 
 wp.set_module_options({"enable_backward": False})
@@ -36,8 +44,8 @@ _MASK_TAKES_CPP = {MASK_NONE: "l > 0.0f", MASK_BOOL: "mask_row[x]", MASK_ID: "ma
 def _log_luminance_span_cpp(mask_kind: str) -> str:
     """The C++ body of ``_make_log_luminance_kernel``'s span function: for pixels
     ``x0 <= x < x1`` of row ``y``, a chunk at a time, the luminance and whether the pixel
-    counts across the chunk (a loop the compiler vectorises), then the logs of the
-    counted ones, summed in order; returns (sum, count).  The colour's rows must be
+    counts and its log term across the chunk (a loop the compiler vectorises), then the
+    counted terms summed in order; returns (sum, count).  The colour's rows must be
     contiguous (``PostProcess`` checks)."""
     mask_row = (
         ""
@@ -46,12 +54,14 @@ def _log_luminance_span_cpp(mask_kind: str) -> str:
     )
     return (
         CHUNK_CPP
+        + LAMBDA_HEADER_CPP
+        + LOG_FLOAT_CPP
         + f"""
 const wp::vec3* row = {row_cpp("color", "y", "wp::vec3")};
 {mask_row}
 double total = 0.0;
 int count = 0;
-float lum[CHUNK];
+double terms[CHUNK];
 bool take[CHUNK];
 for (int xs = x0; xs < x1; xs += CHUNK) {{
     const int n = x1 - xs < CHUNK ? x1 - xs : CHUNK;
@@ -59,13 +69,12 @@ for (int xs = x0; xs < x1; xs += CHUNK) {{
         const int x = xs + j;
         const wp::vec3 c = row[x];
         {LOG_LUMINANCE_CPP}
-        lum[j] = l;
         take[j] = {LOG_COUNTS_CPP} && {_MASK_TAKES_CPP[mask_kind]};  // (finite, selected)
+        terms[j] = {LOG_TERM_CPP};
     }}
     for (int j = 0; j < n; ++j) {{
         if (take[j]) {{
-            const float l = lum[j];
-            total = wp::add(total, {LOG_TERM_CPP});
+            total = wp::add(total, terms[j]);
             ++count;
         }}
     }}

@@ -205,6 +205,8 @@ auto bilinear_code = [&](float px, float py, int k) WH_INLINE -> float {{
 }};
 float cxs[CHUNK], cys[CHUNK], lcs[CHUNK], avg[CHUNK], grad[CHUNK], steps[CHUNK], ox[CHUNK], oy[CHUNK];
 float p1x[CHUNK], p1y[CHUNK], p2x[CHUNK], p2y[CHUNK], end1[CHUNK], end2[CHUNK], sub[CHUNK];
+float first1[FIRST_TAPS][CHUNK], first2[FIRST_TAPS][CHUNK];
+int stop1[CHUNK], stop2[CHUNK];
 bool horizontal[CHUNK];
 wp::uint8 rgb[3][CHUNK];
 for (int s0 = 0; s0 < n; s0 += CHUNK) {{
@@ -254,40 +256,62 @@ for (int s0 = 0; s0 < n; s0 += CHUNK) {{
         sub[j] = wp::mul(wp::mul(sub2, sub2), {float_literal(SUBPIX)});
     }}
     // step 3: each end walks outward until its luma departs from the edge's mean.  Where a
-    // walk's taps lie does not depend on the lumas, only where it stops does: the taps of
-    // both ends are read at once (across taps: no chain of dependent reads), the first few
-    // and, where an end walks past them, the rest; each end stops at its first departing
-    // tap (or its last)
+    // walk's taps lie does not depend on the lumas, only where it stops does: the first
+    // few taps of both ends are read for every pixel of the chunk, tap by tap across the
+    // pixels (no chain of dependent reads); a pixel with an end that walks past them reads
+    // the rest, across its taps; each end stops at its first departing tap (or its last)
+    for (int i = 0; i < FIRST_TAPS; ++i) {{
+        #pragma clang loop vectorize(assume_safety)
+        for (int j = 0; j < m; ++j) {{
+            const float dx = wp::mul(ox[j], search_offsets[i]), dy = wp::mul(oy[j], search_offsets[i]);
+            first1[i][j] = wp::sub(bilinear_luma(wp::sub(p1x[j], dx), wp::sub(p1y[j], dy)), avg[j]);
+            first2[i][j] = wp::sub(bilinear_luma(wp::add(p2x[j], dx), wp::add(p2y[j], dy)), avg[j]);
+        }}
+    }}
+    // the first departing tap of an end among its first taps (FIRST_TAPS where none does)
+    int walks_on = 0;
+    for (int j = 0; j < m; ++j) {{
+        int at1 = FIRST_TAPS, at2 = FIRST_TAPS;
+        for (int i = FIRST_TAPS - 1; i >= 0; --i) {{
+            at1 = wp::abs(first1[i][j]) >= grad[j] ? i : at1;
+            at2 = wp::abs(first2[i][j]) >= grad[j] ? i : at2;
+        }}
+        stop1[j] = at1;
+        stop2[j] = at2;
+        walks_on += at1 == FIRST_TAPS || at2 == FIRST_TAPS ? 1 : 0;
+    }}
     for (int j = 0; j < m; ++j) {{
         const float gj = grad[j], aj = avg[j], sx = ox[j], sy = oy[j];
         const float x1 = p1x[j], y1 = p1y[j], x2 = p2x[j], y2 = p2y[j];
-        float e1s[SEARCH_TAPS], e2s[SEARCH_TAPS];
-        // taps begin .. end - 1 of both ends
-        auto read = [&](const int begin, const int end) WH_INLINE {{
+        int i1 = stop1[j], i2 = stop2[j];
+        float e1 = i1 < FIRST_TAPS ? first1[i1][j] : 0.0f, e2 = i2 < FIRST_TAPS ? first2[i2][j] : 0.0f;
+        if (walks_on > 0 && (i1 == FIRST_TAPS || i2 == FIRST_TAPS)) {{
+            // (the rest of the taps of both ends, across the taps)
+            float e1s[SEARCH_TAPS], e2s[SEARCH_TAPS];
             #pragma clang loop vectorize(enable)
-            for (int i = begin; i < end; ++i) {{
+            for (int i = FIRST_TAPS; i < SEARCH_TAPS; ++i) {{
                 const float dx = wp::mul(sx, search_offsets[i]), dy = wp::mul(sy, search_offsets[i]);
                 e1s[i] = wp::sub(bilinear_luma(wp::sub(x1, dx), wp::sub(y1, dy)), aj);
                 e2s[i] = wp::sub(bilinear_luma(wp::add(x2, dx), wp::add(y2, dy)), aj);
             }}
-        }};
-        // the first departing tap of each end among taps begin .. end - 1 (end where none does)
-        auto stop = [&](const float* es, const int begin, const int end) WH_INLINE -> int {{
-            int at = end;
-            for (int i = end - 1; i >= begin; --i) at = wp::abs(es[i]) >= gj ? i : at;
-            return at;
-        }};
-        // (most walks end within the first taps: the others read the rest)
-        read(0, FIRST_TAPS);
-        int i1 = stop(e1s, 0, FIRST_TAPS), i2 = stop(e2s, 0, FIRST_TAPS);
-        if (i1 == FIRST_TAPS || i2 == FIRST_TAPS) {{
-            read(FIRST_TAPS, SEARCH_TAPS);
-            i1 = i1 < FIRST_TAPS ? i1 : stop(e1s, FIRST_TAPS, SEARCH_TAPS - 1);
-            i2 = i2 < FIRST_TAPS ? i2 : stop(e2s, FIRST_TAPS, SEARCH_TAPS - 1);
+            // the first departing tap among taps FIRST_TAPS .. SEARCH_TAPS - 2, else the last
+            auto stop = [&](const float* es) WH_INLINE -> int {{
+                int at = SEARCH_TAPS - 1;
+                for (int i = SEARCH_TAPS - 2; i >= FIRST_TAPS; --i) at = wp::abs(es[i]) >= gj ? i : at;
+                return at;
+            }};
+            if (i1 == FIRST_TAPS) {{
+                i1 = stop(e1s);
+                e1 = e1s[i1];
+            }}
+            if (i2 == FIRST_TAPS) {{
+                i2 = stop(e2s);
+                e2 = e2s[i2];
+            }}
         }}
         p1x[j] = wp::sub(x1, wp::mul(sx, search_offsets[i1])); p1y[j] = wp::sub(y1, wp::mul(sy, search_offsets[i1]));
         p2x[j] = wp::add(x2, wp::mul(sx, search_offsets[i2])); p2y[j] = wp::add(y2, wp::mul(sy, search_offsets[i2]));
-        end1[j] = e1s[i1]; end2[j] = e2s[i2];
+        end1[j] = e1; end2[j] = e2;
     }}
     // step 4: the blend offset and the colour there, as 8-bit codes (stored after the
     // loop: the pixels' scattered byte stores kept it from vectorising)

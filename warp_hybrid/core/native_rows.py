@@ -55,16 +55,20 @@ auto wh_select = [&](const bool c, const wp::vec3& a, const wp::vec3& b) WH_INLI
 auto wh_lerp = [&](const auto& a, const auto& b, const float t) WH_INLINE {
     return wp::add(wp::mul(a, wp::sub(1.0f, t)), wp::mul(b, t));
 };
-// ``wh_lerp`` of floats as the module's FMA contraction rounds it, for a loop the compiler
-// vectorises (where it would choose afresh which product to fuse): under
-// ``FMA_CONTRACTION_CPU_FLAGS`` the first product fused into the sum, as the compiler
-// fuses the scalar ``wh_lerp``; otherwise ``wh_lerp``.
-auto wh_lerp_contracted = [&](const float a, const float b, const float t) WH_INLINE -> float {
+// a s + b t of floats as a module's FMA contraction rounds ``wp::add(wp::mul(a, s),
+// wp::mul(b, t))``: under ``FMA_CONTRACTION_CPU_FLAGS`` the first product fused into the
+// sum, as clang fuses that scalar code, spelled out for loops it vectorises or folds
+// otherwise (where it would choose afresh which product to fuse); else as written.
+auto wh_add_products = [&](const float a, const float s, const float b, const float t) WH_INLINE -> float {
 #if defined(WH_FMA_CONTRACTION) && !defined(__CUDA_ARCH__)
-    return __builtin_fmaf(a, wp::sub(1.0f, t), wp::mul(b, t));
+    return __builtin_fmaf(a, s, wp::mul(b, t));
 #else
-    return wh_lerp(a, b, t);
+    return wp::add(wp::mul(a, s), wp::mul(b, t));
 #endif
+};
+// ``wh_lerp`` of floats so rounded.
+auto wh_lerp_contracted = [&](const float a, const float b, const float t) WH_INLINE -> float {
+    return wh_add_products(a, wp::sub(1.0f, t), b, t);
 };
 // ``wp::normalize``'s arithmetic (a zero vector stays zero).
 auto wh_normalize = [&](const wp::vec3& a) WH_INLINE -> wp::vec3 {

@@ -264,31 +264,49 @@ def dome_terms_cpp(raster: bool) -> str:
         add_weight[j] = past_top ? wp::mul(WH_INV_PI, t) : t;
         // (the tables read unconditionally, each index in range, so the loop has no branches)
         const int ka = wp::max(la - 1, 0);
-        const int kb = wp::clamp(l0, 0, wp::max(amb.levels - 1, 0));
         const int a_offset = amb.mip_offset.data[ka], a_width = amb.mip_width.data[ka];
         const int a_height = amb.mip_height.data[ka];
         wh_latlong_footprint(la == 0 ? dome_offset : a_offset, la == 0 ? dome_width : a_width,
                              la == 0 ? dome_height : a_height, uv, fa00[j], fa01[j], fa10[j], fa11[j], fax[j],
                              fay[j]);
-        wh_latlong_footprint(amb.mip_offset.data[kb], amb.mip_width.data[kb], amb.mip_height.data[kb], uv, fb00[j],
-                             fb01[j], fb10[j], fb11[j], fbx[j], fby[j]);
+    }}
+    // (the next level's footprint and the SH irradiance past the top only in a chunk with a
+    // lane that reads them)
+    int second_levels = 0, past_tops = 0;
+    for (int j = 0; j < n; ++j) {{
+        second_levels += two_levels[j] ? 1 : 0;
+        past_tops += above_top[j] ? 1 : 0;
+    }}
+    if (second_levels > 0) {{
+        for (int j = 0; j < n; ++j) {{
+            const int l0 = (int)wp::floor(wp::min(lods[j], top));
+            const int kb = wp::clamp(l0, 0, wp::max(amb.levels - 1, 0));
+            wh_latlong_footprint(amb.mip_offset.data[kb], amb.mip_width.data[kb], amb.mip_height.data[kb],
+                                 wp::vec2(ux[j], uy[j]), fb00[j], fb01[j], fb10[j], fb11[j], fbx[j], fby[j]);
+        }}
     }}
 {texel_gather_cpp("fa", "n", first_wanted, "dome_texel_floats", "mip_texel_floats", "level[j] == 0")}
 {texel_gather_cpp("fb", "n", "two_levels[j]", "dome_texel_floats", "mip_texel_floats", "false")}
-    for (int j = 0; j < n; ++j) {{
-        const wp::vec3 a(fac[0][j], fac[1][j], fac[2][j]);
-        const wp::vec3 on_dome = textured ? wh_dome_scaled(env, *dome_texture, a) : env.color;
-        const wp::vec3 first = level[j] == 0 ? wh_select(dome, on_dome, wp::vec3(0.0f)) : a;
-        const wp::vec3 second = above_top[j] ? wh_sh_irradiance(amb, wh_normalize(wp::vec3(ox[j], oy[j], oz[j])), false)
+    // (a literal ``any_top``: false where no lane reads past the top, whose SH irradiance
+    // then folds away)
+    auto looked_up = [&](const bool any_top) WH_INLINE {{
+        for (int j = 0; j < n; ++j) {{
+            const wp::vec3 a(fac[0][j], fac[1][j], fac[2][j]);
+            const wp::vec3 on_dome = textured ? wh_dome_scaled(env, *dome_texture, a) : env.color;
+            const wp::vec3 first = level[j] == 0 ? wh_select(dome, on_dome, wp::vec3(0.0f)) : a;
+            const bool top_lane = any_top && above_top[j];
+            const wp::vec3 second = top_lane ? wh_sh_irradiance(amb, wh_normalize(wp::vec3(ox[j], oy[j], oz[j])), false)
                                              : wp::vec3(fbc[0][j], fbc[1][j], fbc[2][j]);
-        // (the sum's terms in this order: under the deferred module's FMA contraction the
-        // compiler then fuses the same product as in the scalar ``wh_prefiltered_at``, so the
-        // bits agree)
-        const wp::vec3 s = above_top[j] || two_levels[j]
-                               ? wp::add(wp::mul(second, add_weight[j]), wp::mul(first, keep[j]))
-                               : first;
-        sr[j] = s[0]; sg[j] = s[1]; sb[j] = s[2];
-    }}
+            // (the sum's terms in this order, rounded as the deferred module's FMA contraction
+            // rounds the scalar ``wh_prefiltered_at``: the same bits)
+            const float w = add_weight[j], k = keep[j];
+            const wp::vec3 blend(wh_add_products(second[0], w, first[0], k), wh_add_products(second[1], w, first[1], k),
+                                 wh_add_products(second[2], w, first[2], k));
+            const wp::vec3 s = top_lane || two_levels[j] ? blend : first;
+            sr[j] = s[0]; sg[j] = s[1]; sb[j] = s[2];
+        }}
+    }};
+    if (past_tops > 0) looked_up(true); else looked_up(false);
     }}{behind}
 """
 

@@ -239,7 +239,7 @@ def texel_gather_cpp(
     ``dome`` (a ``const float*`` over vec4 texels) where ``on_dome`` (a condition on ``j``),
     else from ``mips`` (over vec3 texels).  Each load is a conditional read of a flat float
     array, so the compiler gathers them across the lanes; a block whose wanted lanes all
-    read one source reads that one alone."""
+    read one source reads that one alone, one without a wanted lane nothing."""
     f = footprint
     return f"""
     {{
@@ -271,7 +271,10 @@ def texel_gather_cpp(
                 }}
             }}
         }};
-        if (mip_lanes == 0) gather(true, false);
+        if (dome_lanes == 0 && mip_lanes == 0) {{
+            for (int j = 0; j < {lanes}; ++j) {f}c[0][j] = {f}c[1][j] = {f}c[2][j] = 0.0f;
+        }}
+        else if (mip_lanes == 0) gather(true, false);
         else if (dome_lanes == 0) gather(false, true);
         else gather(true, true);
     }}"""

@@ -11,6 +11,7 @@ import warp as wp
 
 from warp_hybrid.core.camera import CameraGPU, make_camera_gpu, pixel_ray
 from warp_hybrid.core.gbuffer import CHANNELS, GBuffer, GBufferRows
+from warp_hybrid.core.native_rows import SURFACE_CHUNK_CPU
 from warp_hybrid.core.scene_gpu import SceneGPU
 from warp_hybrid.parallel import Launcher
 from warp_hybrid.primary import Rasterizer
@@ -97,18 +98,19 @@ def test_row_loop_writes_what_surface_at_grad_gives(device, threads):
     hit = loop.hit_mask()
     # whole chunks of background (rows above the panels): the loop's shortcut for them,
     # and on the CPU their blocks known to hold the background record
-    assert (~hit[:, :64]).all(axis=1).any()
+    c = SURFACE_CHUNK_CPU
+    assert (~hit[:, :c]).all(axis=1).any()
     if device == "cpu":
         blocks = loop.background_blocks.numpy()
-        np.testing.assert_array_equal(blocks[:, 0] == 1, (~hit[:, :64]).all(axis=1))
+        np.testing.assert_array_equal(blocks[:, 0] == 1, (~hit[:, :c]).all(axis=1))
     materials = loop.channel_numpy("material_id")
     # every path is taken: background, the floor and each panel; chunks whose runs of one
     # triangle are short (the gather lane by lane) and long (once a run); whole chunks in
     # rows that start a cache line (written in whole lines) and the others
-    tris = loop.triangle_id.numpy().reshape(H, W)[:, :128].reshape(H, 2, 64)
+    tris = loop.triangle_id.numpy().reshape(H, W)[:, : W - W % c].reshape(H, -1, c)
     runs = 1 + (tris[..., 1:] != tris[..., :-1]).sum(axis=-1)
     hit_chunks = (tris >= 0).any(axis=-1)
-    assert (runs[hit_chunks] * SHORT_RUN_PIXELS > 64).any() and (runs[hit_chunks] * SHORT_RUN_PIXELS <= 64).any()
+    assert (runs[hit_chunks] * SHORT_RUN_PIXELS > c).any() and (runs[hit_chunks] * SHORT_RUN_PIXELS <= c).any()
     assert 0.05 < hit.mean() < 0.95
     assert set(np.unique(materials[hit])) == set(range(len(scene.materials)))
     # the reference: the hit record copied, the background's values, the scalar surface

@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 import warp as wp
 
-from .native_rows import CHUNK_CPU
+from .native_rows import SURFACE_CHUNK_CPU
 
 
 @wp.struct
@@ -81,8 +81,8 @@ GBufferRows = _kernel_struct("GBufferRows", 1, "Every channel as a flat row-majo
 class GBuffer:
     """Device arrays of every channel, each (height, width); ``gbuffer.<channel>``.
 
-    ``background_blocks`` ((height, ceil(width / CHUNK_CPU)) int32): per row, whether each
-    block of ``CHUNK_CPU`` pixels (from column 0) holds the background record, 1 where the
+    ``background_blocks`` ((height, ceil(width / SURFACE_CHUNK_CPU)) int32): per row, whether each
+    block of ``SURFACE_CHUNK_CPU`` pixels (from column 0) holds the background record, 1 where the
     surface pass's row loop wrote it there, 0 where it wrote a surface or does not know
     (``clear``); a block that sees no surface again is left as it is.  The channels are
     the primary passes' to write: anything else that writes one must ``clear``."""
@@ -95,7 +95,7 @@ class GBuffer:
         shape = (self.height, self.width)
         self._arrays = {c.name: wp.empty(shape, dtype=c.dtype, device=self.device) for c in CHANNELS}
         self.background_blocks = wp.zeros(
-            (self.height, -(-self.width // CHUNK_CPU)), dtype=wp.int32, device=self.device
+            (self.height, -(-self.width // SURFACE_CHUNK_CPU)), dtype=wp.int32, device=self.device
         )
         self._rows = GBufferRows()
         self._kernel_arrays = GBufferArrays()

@@ -49,7 +49,14 @@ import warp as wp
 from ..core.camera import CAMERA_RAY_CPP, CameraGPU, pixel_ray
 from ..core.constants import LUMA_709_CPP, luma709
 from ..core.gbuffer import BACKGROUND, GBufferRows, Optics
-from ..core.native_rows import CHUNK_CPP, LAMBDA_HEADER_CPP, STREAM_CPP, WIDE_VECTOR_CPU_FLAGS
+from ..core.native_rows import (
+    CHUNK_CPP,
+    LAMBDA_HEADER_CPP,
+    STREAM_CPP,
+    SURFACE_CHUNK_CPU,
+    WIDE_VECTOR_CPU_FLAGS,
+    chunk_cpp,
+)
 from ..core.pixel_list import listed_pixel
 from ..core.scene_gpu import FLAG_VERTEX_COLOR, SceneGPU
 from ..scene.device.surface import SURFACE_CPP, UV_FOOTPRINT_CPP, is_cut_away, samples_textures, surface_at_grad
@@ -578,7 +585,7 @@ _WRITE_LANES_CPP = (
 # writes all of it after); the loop returns how many it left.  The same lambdas as
 # ``surface_at_grad``, so the same bits.
 _SURFACE_SPAN_CPP = (
-    CHUNK_CPP
+    chunk_cpp(SURFACE_CHUNK_CPU)
     + SURFACE_CPP
     + STREAM_CPP
     + f"""

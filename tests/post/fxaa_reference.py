@@ -7,16 +7,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from warp_hybrid.post.aa import EDGE_THRESHOLD, EDGE_THRESHOLD_MIN, SEARCH_STEP_PX, SUBPIX, luma_table
+from warp_hybrid.post.aa import EDGE_THRESHOLD, EDGE_THRESHOLD_MIN, LUMA_WEIGHTS, SEARCH_STEP_PX, SUBPIX
 
 F = np.float32
 
 
 def code_luma(codes: np.ndarray) -> np.ndarray:
-    """The luma of 8-bit sRGB codes (H, W, 3): ``luma_table``'s three terms summed in
-    channel order."""
-    table = luma_table()
-    return (table[codes[..., 0], 0] + table[codes[..., 1], 1]) + table[codes[..., 2], 2]
+    """The luma of 8-bit sRGB codes (H, W, 3): per channel ``weight * (code * (1 / 255))``
+    in float32, the three terms summed in channel order."""
+    terms = [F(w) * (codes[..., k].astype(F) * F(1.0 / 255.0)) for k, w in enumerate(LUMA_WEIGHTS)]
+    return (terms[0] + terms[1]) + terms[2]
 
 
 def fxaa(codes: np.ndarray) -> np.ndarray:

@@ -3,8 +3,8 @@ well-known restatement of it.
 
 Runs on the tone-mapped 8-bit sRGB image (as FXAA does on a display buffer); luma is
 computed from the sRGB values (``0.299 R + 0.587 G + 0.114 B``).  The tone-mapping pass
-writes that luma of every pixel beside the 8-bit image (``LUMA_OF_CODES_CPP``, from a
-256-entry table per channel that reproduces the per-texel arithmetic bit for bit), so
+writes that luma of every pixel beside the 8-bit image (``LUMA_OF_CODES_CPP``: each
+channel's weight times its code times 1/255, in float32, summed in channel order), so
 the edge tests read one float per texel.  Per pixel:
 
 1. Local contrast of the centre and its 4 neighbours; pixels whose luma range is below
@@ -33,7 +33,6 @@ from __future__ import annotations
 import itertools
 import math
 
-import numpy as np
 import warp as wp
 
 from ..core.native_rows import CHUNK_CPP, LAMBDA_HEADER_CPP, float_literal, row_cpp
@@ -57,17 +56,14 @@ FXAA_REACH_PX = max(1, math.ceil(sum(SEARCH_STEP_PX) + 0.5))
 LUMA_WEIGHTS = (0.299, 0.587, 0.114)  # Rec. 601, as FXAA
 
 
-def luma_table() -> np.ndarray:
-    """(256, 3) float32: the terms of the luma (``LUMA_WEIGHTS`` . sRGB values in
-    [0, 1]) for each 8-bit code and channel, ``weight_c * (code * (1 / 255))`` in
-    float32."""
-    scaled = np.arange(256, dtype=np.float32) * np.float32(1.0 / 255.0)
-    return np.stack([np.float32(w) * scaled for w in LUMA_WEIGHTS], axis=-1)
-
-
-#: C++ expression: the luma of the 8-bit codes ``r, g, b`` from ``luma_table`` (``lut``, a
-#: ``const wp::vec3*``), its three terms summed in channel order (the tone map writes it).
-LUMA_OF_CODES_CPP = "lut[r][0] + lut[g][1] + lut[b][2]"
+#: C++ expression: the luma of the 8-bit codes ``r, g, b`` (ints), ``LUMA_WEIGHTS`` . the
+#: sRGB values: per channel ``weight * (code * (1 / 255))`` in float32, the three terms
+#: summed in channel order (the tone map writes it).
+LUMA_OF_CODES_CPP = (
+    f"wp::add(wp::add(wp::mul({float_literal(LUMA_WEIGHTS[0])}, wp::mul((float)r, {float_literal(1.0 / 255.0)})),"
+    f" wp::mul({float_literal(LUMA_WEIGHTS[1])}, wp::mul((float)g, {float_literal(1.0 / 255.0)}))),"
+    f" wp::mul({float_literal(LUMA_WEIGHTS[2])}, wp::mul((float)b, {float_literal(1.0 / 255.0)})))"
+)
 
 
 #: C++: the luma buffer's texel (x, y) with clamp-to-edge addressing.

@@ -172,7 +172,6 @@ def _tonemap_span_cpp(operator: str, with_luma: bool) -> str:
 const float* row = {row_cpp("color", "y", "float")};
 wp::uint8* bytes = {row_cpp("out", "y", "wp::uint8", const=False)};
 const wp::vec2* cells = enc.cells.data;
-const wp::vec3* lut = luma_lut.data;
 float tone[3 * CHUNK];
 int codes[3 * CHUNK];
 for (int xs = x0; xs < x1; xs += CHUNK) {{
@@ -197,7 +196,7 @@ for (int xs = x0; xs < x1; xs += CHUNK) {{
 def _make_tonemap_kernel(operator: str, with_luma: bool) -> wp.Kernel:
     """Exposure (the scale in ``exposure[0]``), the curve ``operator`` (``tonemap.CHANNEL_CPP``),
     then the exact 8-bit sRGB code per channel (``color.SRGB_QUANTIZE_CPP``); with
-    ``with_luma`` also the FXAA luma of the codes (``luma_lut`` = ``aa.luma_table()``).
+    ``with_luma`` also the FXAA luma of the codes (``aa.LUMA_OF_CODES_CPP``).
     The same bits as ``OPERATORS[operator]`` and ``srgb_quantize`` pixel by pixel, in a
     native row loop the compiler vectorises across pixels."""
 
@@ -207,7 +206,6 @@ def _make_tonemap_kernel(operator: str, with_luma: bool) -> wp.Kernel:
         scale: float,
         enc: Srgb8Encoder,
         out: wp.array3d(dtype=wp.uint8),
-        luma_lut: wp.array(dtype=wp.vec3),
         luma: wp.array2d(dtype=float),
         y: int,
         x0: int,
@@ -222,7 +220,6 @@ def _make_tonemap_kernel(operator: str, with_luma: bool) -> wp.Kernel:
         exposure: wp.array(dtype=Exposure),
         encoder: Srgb8Encoder,
         out: wp.array3d(dtype=wp.uint8),
-        luma_lut: wp.array(dtype=wp.vec3),
         luma: wp.array2d(dtype=float),
         x0: int,
         x1: int,
@@ -235,7 +232,7 @@ def _make_tonemap_kernel(operator: str, with_luma: bool) -> wp.Kernel:
         first = wp.max(c * cols, x0)
         stop = wp.min(c * cols + cols, x1)
         if first < stop:
-            span(color, exposure[0].scale, encoder, out, luma_lut, luma, y, first, stop)
+            span(color, exposure[0].scale, encoder, out, luma, y, first, stop)
 
     return tonemap_pixels
 

@@ -22,7 +22,7 @@ from ..core.passes import FrameContext, MeteredRows, RenderPass
 from ..core.rows import NO_ROWS, RowSpan, span_clip, span_grow
 from ..parallel import FEW_BANDS_PER_THREAD, Launcher
 from ..timing import StageTimer
-from .aa import FXAA_REACH_PX, luma_table
+from .aa import FXAA_REACH_PX
 from .color import make_srgb8_encoder
 from .exposure import Exposure
 from .kernels import (
@@ -58,7 +58,6 @@ class PostProcess(RenderPass):
         # rows of the layer the lighting pass meters
         self._row_exposures: dict[tuple, wp.Launch] = {}
         self._encoder = make_srgb8_encoder(launcher.device)
-        self._luma_lut = wp.array(luma_table(), dtype=wp.vec3, device=launcher.device)
         self._exposure = wp.zeros(1, dtype=Exposure, device=launcher.device)  # EV 0 until a frame runs
         # what the last call drew: its colour array (held, so no other array takes its
         # place), its 8-bit target and its settings (see ``process``)
@@ -239,7 +238,7 @@ class PostProcess(RenderPass):
                 self.exposure_from_rows(metered_rows.row_sum, metered_rows.row_count)
             elif not keep_exposure:
                 self.auto_exposure(color if metered is None else metered, hit_mask)
-            inputs = [color, self._exposure, self._encoder, buffers["ldr"], self._luma_lut, buffers["luma"], *cols]
+            inputs = [color, self._exposure, self._encoder, buffers["ldr"], buffers["luma"], *cols]
             self.launcher.launch_pixels(
                 TONEMAP_KERNELS[(tonemap, aa)], h, w, inputs, rows=rows, bands_per_thread=FEW_BANDS_PER_THREAD
             )

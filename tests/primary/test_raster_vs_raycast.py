@@ -8,6 +8,8 @@ import pytest
 from scipy import ndimage
 
 from warp_hybrid.core.gbuffer import CHANNELS, GBuffer
+from warp_hybrid.core.native_rows import CHUNK_CPU
+from warp_hybrid.primary.kernels import SHORT_RUN_PIXELS
 from warp_hybrid.scene.authoring.builders import look_at_camera, make_scene, quad, uv_sphere
 from warp_hybrid.scene.model import Camera, Material, Scene
 
@@ -80,6 +82,13 @@ def test_raster_matches_raycast_on_an_analytic_scene(device: str, render) -> Non
     assert s["material_agree"] == 1.0
     assert s["same_triangle"] >= 0.995  # differences only where a pixel centre lies on an inner edge
     assert s["same_hit_bits"] == 1.0
+    # the resolve's chunks took both ways to their corners: gathered per pixel where runs of
+    # pixels on one triangle are short (the balls), once a run elsewhere (the floor)
+    tris = a.triangle_id.numpy()[:, : 160 - 160 % CHUNK_CPU].reshape(120, -1, CHUNK_CPU)
+    runs = 1 + (tris[..., 1:] != tris[..., :-1]).sum(axis=-1)
+    hit_chunks = (tris >= 0).any(axis=-1)
+    short = runs * SHORT_RUN_PIXELS > CHUNK_CPU
+    assert (short & hit_chunks).any() and (~short & hit_chunks).any()
     same = a.triangle_id.numpy() == b.triangle_id.numpy()
     for name in ("position", "albedo", "specular", "optics"):
         got, want = a.channel_numpy(name)[same], b.channel_numpy(name)[same]

@@ -349,8 +349,14 @@ const wp::vec3 p1(bx[j], by[j], bz[j]);
 const wp::vec3 p2(cx[j], cy[j], cz[j]);
 """
 
+#: A chunk whose runs of pixels on one triangle average under this many pixels gathers
+#: each pixel's corners (the resolve's step (2), the surface row loop's step (1)); the
+#: others load them once a run.
+SHORT_RUN_PIXELS = 4
+
 # The resolve's row loop: a chunk of pixels at a time, (1) the smallest key over the
-# slices, (2) the corners of each pixel's triangle (a gather, none for an empty key),
+# slices, (2) the corners of each pixel's triangle (none for an empty key; gathered, or
+# once a run of pixels on one triangle: ``SHORT_RUN_PIXELS``),
 # (3) the camera ray and ``EXACT_HIT_CPP`` in a loop of plain arithmetic over the chunk
 # (no memory access but its own scratch, no branch: the compiler vectorises it across
 # pixels), (4) the hit record, or the background's for an empty key (a chunk of empty
@@ -391,15 +397,41 @@ for (int xs = x0; xs < x1; xs += CHUNK) {{
             hit_v[j] = miss_barycentric;
         }}
     }} else {{
+    // (the corners as the surface pass takes them: where the chunk's runs of pixels on one
+    // triangle are short, each pixel's own, gathered across the chunk; else once a run)
+    int runs = 0;
     for (int j = 0; j < n; ++j) {{
+        tri_v[j] = key[j] != empty ? (int)(key[j] & 0xFFFFFFFFull) : -1;
+        runs += (j == 0 || tri_v[j] != tri_v[j - 1]) ? 1 : 0;
+    }}
+    if (runs * {SHORT_RUN_PIXELS} > n) {{
+        const float* P = (const float*)corners;
+        #pragma clang loop vectorize(enable)
+        for (int j = 0; j < n; ++j) {{
+            const bool hit = tri_v[j] >= 0;
+            const int k = 3 * (hit ? tri_v[j] : 0);
+            const int ia = 3 * index[k], ib = 3 * index[k + 1], ic = 3 * index[k + 2];
+            ax[j] = hit ? P[ia] : 0.0f; ay[j] = hit ? P[ia + 1] : 0.0f; az[j] = hit ? P[ia + 2] : 0.0f;
+            bx[j] = hit ? P[ib] : 0.0f; by[j] = hit ? P[ib + 1] : 0.0f; bz[j] = hit ? P[ib + 2] : 0.0f;
+            cx[j] = hit ? P[ic] : 0.0f; cy[j] = hit ? P[ic + 1] : 0.0f; cz[j] = hit ? P[ic + 2] : 0.0f;
+        }}
+    }} else {{
+    for (int run = 0; run < n;) {{
+        const int tri = tri_v[run];
+        int end = run + 1;
+        while (end < n && tri_v[end] == tri) ++end;
         wp::vec3 a(0.0f), b(0.0f), c(0.0f);
-        if (key[j] != empty) {{
-            const int k = 3 * (int)(key[j] & 0xFFFFFFFFull);
+        if (tri >= 0) {{
+            const int k = 3 * tri;
             a = corners[index[k]];
             b = corners[index[k + 1]];
             c = corners[index[k + 2]];
         }}
-        {_STORE_CORNERS_CPP}
+        for (int j = run; j < end; ++j) {{
+            {_STORE_CORNERS_CPP}
+        }}
+        run = end;
+    }}
     }}
     for (int j = 0; j < n; ++j) {{
         {_LANE_RAY_CPP}
@@ -410,7 +442,7 @@ for (int xs = x0; xs < x1; xs += CHUNK) {{
     }}
     for (int j = 0; j < n; ++j) {{
         const bool hit = key[j] != empty;
-        tri_v[j] = hit ? (int)(key[j] & 0xFFFFFFFFull) : miss_triangle;
+        tri_v[j] = hit ? tri_v[j] : miss_triangle;
         hit_t[j] = hit ? hit_t[j] : miss_depth;
         hit_u[j] = hit ? hit_u[j] : miss_barycentric;
         hit_v[j] = hit ? hit_v[j] : miss_barycentric;
@@ -543,9 +575,6 @@ _SURFACE_LANES = {
     "emission": ("er", "eg", "eb"),
     "optics": ("o_refl", "o_ior", "o_opac", "o_rough"),
 }
-#: A chunk whose runs of pixels on one triangle average under this many pixels gathers
-#: each pixel's corners (the surface row loop's step (1)).
-SHORT_RUN_PIXELS = 4
 
 
 def _background_lanes_cpp(keep: str) -> str:

@@ -100,7 +100,8 @@ def test_constant_dome_ambient_emission_and_background(device):
     dome = Environment("/dome", (0.3, 0.5, 0.7))
     albedo = np.array([0.6, 0.4, 0.2])
     gb = _plane_gbuffer(device, albedo=tuple(albedo), emission=(0.1, 0.0, 0.0), background_cols=3)
-    color = _shade(device, _scene(device, environment=dome), gb)
+    glow = [Material("/m", emissive=(0.1, 0.0, 0.0))]  # (the G-buffer's emission is the scene's)
+    color = _shade(device, _scene(device, environment=dome, materials=glow), gb)
     # SH irradiance of a constant dome is pi L, so a Lambertian returns albedo * L
     np.testing.assert_allclose(
         color[:, 3:].reshape(-1, 3), np.tile(albedo * [0.3, 0.5, 0.7] + [0.1, 0, 0], (H * (W - 3), 1)), rtol=1e-5

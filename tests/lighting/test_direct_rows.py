@@ -56,12 +56,13 @@ def lit_rows_kernel(
     cam: CameraGPU,
     gb: GBufferArrays,
     out: wp.array2d(dtype=wp.vec3),
+    emissive: int,
     meter: int,
     meter_sum: wp.array(dtype=wp.float64),
     meter_count: wp.array(dtype=wp.int32),
 ):
     y = wp.tid()
-    lit_span(scene, amb, cam, gb, out, 0, scene.light_count, meter, meter_sum, meter_count, y, 0, cam.width)
+    lit_span(scene, amb, cam, gb, out, 0, scene.light_count, emissive, meter, meter_sum, meter_count, y, 0, cam.width)
 
 
 @wp.kernel
@@ -162,8 +163,16 @@ def test_lit_row_loop_matches_the_scalar_shading(device, dome, indirect):
     inputs = [ds.gpu, ds.ambient, cam, gb.kernel_arrays()]
     metered = (wp.zeros(H, dtype=wp.float64, device=device), wp.zeros(H, dtype=wp.int32, device=device))
     meter = 1 if device == "cpu" else 0  # (CUDA: a launch item a pixel, the post stage meters)
-    wp.launch(lit_rows_kernel, dim=H, inputs=[*inputs, got, meter, *metered], device=device)
+    wp.launch(lit_rows_kernel, dim=H, inputs=[*inputs, got, 1, meter, *metered], device=device)
     wp.launch(lit_scalar_kernel, dim=(H, W), inputs=[*inputs, want], device=device)
+    # a scene without an emissive material (``emissive`` 0): the emission channel is not
+    # read, the radiance that of a zero emission
+    unlit = wp.zeros((H, W), dtype=wp.vec3, device=device)
+    wp.launch(lit_rows_kernel, dim=H, inputs=[*inputs, unlit, 0, 0, *metered], device=device)
+    gb.emission.zero_()
+    dark = wp.zeros((H, W), dtype=wp.vec3, device=device)
+    wp.launch(lit_scalar_kernel, dim=(H, W), inputs=[*inputs, dark], device=device)
+    assert not np.array_equal(dark.numpy(), want.numpy())
     if device == "cpu":
         post = (wp.zeros(H, dtype=wp.float64, device=device), wp.zeros(H, dtype=wp.int32, device=device))
         log_kernel = LOG_LUMINANCE_KERNELS[MASK_ID]
@@ -182,7 +191,8 @@ def test_lit_row_loop_matches_the_scalar_shading(device, dome, indirect):
         np.testing.assert_array_equal(background, np.broadcast_to(sky, background.shape))
     if indirect:
         assert max(ds.ambient.indirect) > 0.0
-    if device == "cpu":
-        np.testing.assert_array_equal(got, want)
-    else:
-        np.testing.assert_allclose(got, want, rtol=1e-6, atol=1e-7)
+    for rows, scalar in ((got, want), (unlit.numpy(), dark.numpy())):
+        if device == "cpu":
+            np.testing.assert_array_equal(rows, scalar)
+        else:
+            np.testing.assert_allclose(rows, scalar, rtol=1e-6, atol=1e-7)

@@ -119,6 +119,7 @@ def _make_shade_kernel(shadowed: bool, probed: bool = False) -> wp.Kernel:
         probe: ProbeGPU,
         direct: wp.array2d(dtype=wp.vec3),
         color_out: wp.array2d(dtype=wp.vec3),
+        emissive: int,
         meter: int,
         meter_sum: wp.array(dtype=wp.float64),
         meter_count: wp.array(dtype=wp.int32),
@@ -150,7 +151,20 @@ def _make_shade_kernel(shadowed: bool, probed: bool = False) -> wp.Kernel:
             direct_span(scene, cam, gb, direct, 0, scene.light_count, y, first, stop)
         else:  # the whole radiance in the row loop
             lit_span(
-                scene, amb, cam, gb, color_out, 0, scene.light_count, meter, meter_sum, meter_count, y, first, stop
+                scene,
+                amb,
+                cam,
+                gb,
+                color_out,
+                0,
+                scene.light_count,
+                emissive,
+                meter,
+                meter_sum,
+                meter_count,
+                y,
+                first,
+                stop,
             )
             return
         for x in range(first, stop):
@@ -242,8 +256,9 @@ class DeferredLighting(RenderPass):
         rows: RowSpan | None = None,
         sums: tuple[wp.array, wp.array] | None = None,
     ) -> None:
-        """Write the linear radiance of every pixel (of ``rows``, default every row), (H, W)
-        vec3, into ``color_out`` (each light's direct term times its visibility in ``maps``
+        """Write the linear radiance of every pixel (of ``rows``, default every row) of
+        ``gbuffer``, a G-buffer of ``scene`` (its emission channel is read only where the
+        scene has an emissive material), (H, W) vec3, into ``color_out`` (each light's direct term times its visibility in ``maps``
         when given, the glossy ambient from ``probe`` when given); with ``sums`` (float64
         and int32 arrays of H, the row loop only: no maps, no probe, on the CPU) each row's
         log-luminance sum and count as the post stage meters them (``MeteredRows``)."""
@@ -263,6 +278,7 @@ class DeferredLighting(RenderPass):
             _NO_PROBE if probe is None else probe,
             color_out if maps is None else self._direct_sums(color_out),
             color_out,
+            int(scene.features.emission),
             0 if sums is None else 1,
             *(self._no_sums if sums is None else sums),
         ]

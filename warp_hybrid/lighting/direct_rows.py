@@ -482,7 +482,7 @@ def _span_cpp(lit: bool) -> str:
     ``target``)."""
     lit_gather = (
         """
-        const wp::vec3 em = emission[x];
+        const wp::vec3 em = emissive != 0 ? emission[x] : wp::vec3(0.0f);
         er[j] = em[0]; eg[j] = em[1]; eb[j] = em[2];
         hit[j] = triangle[x] >= 0;"""
         if lit
@@ -564,6 +564,7 @@ def lit_span(
     target: wp.array2d(dtype=wp.vec3),
     lights_begin: int,
     lights_end: int,
+    emissive: int,
     meter: int,
     meter_sum: wp.array(dtype=wp.float64),
     meter_count: wp.array(dtype=wp.int32),
@@ -575,5 +576,7 @@ def lit_span(
     ``shading.shade_surface`` over the unshadowed sum of lights ``lights_begin`` ..
     ``lights_end - 1`` (as ``direct_span``) with the dome's ambient terms, the dome's
     radiance along the camera ray (``environment_radiance``; black without a dome) where
-    the pixel sees no surface; pixel by pixel the same arithmetic."""
+    the pixel sees no surface; pixel by pixel the same arithmetic.  ``emissive`` 0: the
+    scene has no emissive material (``SceneFeatures.emission``), so the emission channel,
+    zero, is not read."""
     ...

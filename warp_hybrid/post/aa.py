@@ -265,7 +265,6 @@ for (int s0 = 0; s0 < n; s0 += CHUNK) {{
         }}
     }}
     // the first departing tap of an end among its first taps (FIRST_TAPS where none does)
-    int walks_on = 0;
     for (int j = 0; j < m; ++j) {{
         int at1 = FIRST_TAPS, at2 = FIRST_TAPS;
         for (int i = FIRST_TAPS - 1; i >= 0; --i) {{
@@ -274,14 +273,13 @@ for (int s0 = 0; s0 < n; s0 += CHUNK) {{
         }}
         stop1[j] = at1;
         stop2[j] = at2;
-        walks_on += at1 == FIRST_TAPS || at2 == FIRST_TAPS ? 1 : 0;
     }}
     for (int j = 0; j < m; ++j) {{
         const float gj = grad[j], aj = avg[j], sx = ox[j], sy = oy[j];
         const float x1 = p1x[j], y1 = p1y[j], x2 = p2x[j], y2 = p2y[j];
         int i1 = stop1[j], i2 = stop2[j];
         float e1 = i1 < FIRST_TAPS ? first1[i1][j] : 0.0f, e2 = i2 < FIRST_TAPS ? first2[i2][j] : 0.0f;
-        if (walks_on > 0 && (i1 == FIRST_TAPS || i2 == FIRST_TAPS)) {{
+        if (i1 == FIRST_TAPS || i2 == FIRST_TAPS) {{
             // (the rest of the taps of both ends, across the taps)
             float e1s[SEARCH_TAPS], e2s[SEARCH_TAPS];
             #pragma clang loop vectorize(enable)

@@ -235,12 +235,12 @@ def band_table(
     return table
 
 
-def _kept(cache: dict[tuple, Any], key: tuple, make: Callable[[], Any]) -> Any:
+def kept(cache: dict[tuple, Any], key: tuple, make: Callable[[], Any], limit: int = KEPT_TABLES) -> Any:
     """``cache[key]``, made by ``make()`` the first time it is asked for; a cache that holds
-    ``KEPT_TABLES`` entries starts again."""
+    ``limit`` entries starts again."""
     value = cache.get(key)
     if value is None:
-        if len(cache) >= KEPT_TABLES:
+        if len(cache) >= limit:
             cache.clear()
         value = cache[key] = make()
     return value
@@ -407,7 +407,7 @@ class Launcher:
                 ((rows, 1), (first + row0, 1, width)) for row0, rows in (band(k, bands, count) for k in range(bands))
             ]
 
-        self.launch_bands(kernel, inputs, _kept(self._pixel_bands, (first, count, width, per_thread), launches))
+        self.launch_bands(kernel, inputs, kept(self._pixel_bands, (first, count, width, per_thread), launches))
 
     def launch_items(
         self, kernel: wp.Kernel, count: int, inputs: Sequence[Any], min_band_items: int = MIN_BAND_ITEMS
@@ -620,7 +620,7 @@ class Launcher:
         """The band table of an untimed one-stage pass cut into ``bands``: the one built
         for the same bands before (nothing reads its written-back columns), else a new
         one, kept."""
-        return _kept(self._tables, tuple(bands), lambda: band_table([[launch] for launch in bands], None, None))
+        return kept(self._tables, tuple(bands), lambda: band_table([[launch] for launch in bands], None, None))
 
     def _native_pass(
         self,

@@ -20,7 +20,7 @@ import warp as wp
 
 from ..core.passes import FrameContext, MeteredRows, RenderPass
 from ..core.rows import NO_ROWS, RowSpan, span_clip, span_grow
-from ..parallel import FEW_BANDS_PER_THREAD, Launcher
+from ..parallel import FEW_BANDS_PER_THREAD, Launcher, kept
 from ..timing import StageTimer
 from .aa import FXAA_REACH_PX
 from .color import make_srgb8_encoder
@@ -135,17 +135,18 @@ class PostProcess(RenderPass):
         the same EV)."""
         self._drawn = None
         key = (row_sum.ptr, row_count.ptr, row_sum.shape, row_count.shape)
-        launch = self._row_exposures.get(key)
-        if launch is None:
-            if len(self._row_exposures) >= 2:  # (after a resize: the old rows' go)
-                self._row_exposures.clear()
-            launch = self._row_exposures[key] = wp.launch(
+        launch = kept(
+            self._row_exposures,
+            key,
+            lambda: wp.launch(
                 exposure_from_rows,
                 dim=1,
                 inputs=[row_sum, row_count, 2.0, self._exposure],
                 device=self.launcher.device,
                 record_cmd=True,
-            )
+            ),
+            limit=2,  # (this stage's rows and the lighting pass's; after a resize the old ones go)
+        )
         launch.launch()
 
     def set_exposure(self, ev: float) -> None:

@@ -14,6 +14,7 @@ from warp_hybrid import band_pool, parallel
 from warp_hybrid.parallel import (
     BANDS_PER_THREAD,
     FEW_BANDS_PER_THREAD,
+    GUIDED_SHARE,
     ITEM_GROUP,
     KEPT_TABLES,
     BandLaunch,
@@ -24,6 +25,7 @@ from warp_hybrid.parallel import (
     band_count,
     default_thread_count,
     group_launch,
+    guided_bands,
     item_group,
 )
 from warp_hybrid.timing import StageTimer
@@ -656,3 +658,29 @@ def test_native_bands_switch_off_and_on() -> None:
             np.testing.assert_array_equal(out.numpy(), np.full((height, width), 2, np.int32))
     with Launcher("cpu", 1) as one, pytest.raises(ValueError, match="no native band threads"):
         one.native_bands = True
+
+
+@pytest.mark.parametrize("threads", [1, 2, 3, 8])
+@pytest.mark.parametrize("total", [0, 1, 3, 4, 9, 480, 481, 1080])
+def test_guided_bands_tile_the_range_and_shrink(threads: int, total: int) -> None:
+    """Guided bands cover 0..total-1 once, in order; each takes 1 / (GUIDED_SHARE *
+    threads) of the rows left (none under the minimum but the last), so they never grow."""
+    parts = guided_bands(total, threads, 4)
+    if total == 0:
+        assert parts == []
+        return
+    _tile(parts, total)
+    if threads == 1:
+        assert parts == [(0, total)]
+        return
+    sizes = [n for _, n in parts]
+    assert all(a >= b for a, b in zip(sizes, sizes[1:]))
+    for first, n in parts[:-1]:
+        left = total - first
+        assert n == max(4, -(-left // (GUIDED_SHARE * threads)))
+
+
+def test_guided_bands_of_a_frame() -> None:
+    """480 rows on two threads: a quarter of the rows first, four-row bands at the end."""
+    sizes = [n for _, n in guided_bands(480, 2, 4)]
+    assert sizes == [120, 90, 68, 51, 38, 29, 21, 16, 12, 9, 7, 5, 4, 4, 4, 2]

@@ -7,7 +7,8 @@ per-pixel kernel takes ``row0, row_step, cols`` as its last three inputs
 triangles, pixel lists) take ``start, step`` (``launch_items``), or ``start, stop,
 group`` where on the CPU a launch item loops over a group of consecutive items
 (``launch_groups``: kernels with big struct arguments).  On the CPU a pass is
-cut into contiguous bands (of rows or items), several per thread (``band_count``), and
+cut into contiguous bands (of rows or items), several per thread (``band_count``; a
+pixel pass on the native band threads in bands that shrink as they go, ``guided_bands``), and
 each thread takes the next band not yet taken until none is left: whichever thread
 was slowed (a costlier part of the image, another process on its core) simply takes
 fewer bands, and neighbouring rows stay on one thread (the texels they share stay in
@@ -110,6 +111,12 @@ BANDS_PER_THREAD = 8
 # thread, and even rows leave little for more bands to balance.
 FEW_BANDS_PER_THREAD = 2
 MIN_BAND_ROWS = 4
+# A band of a pixel pass on the native band threads takes 1 / (GUIDED_SHARE * threads) of
+# the rows left (``guided_bands``): 16 bands for 480 rows on two threads, the last few of
+# four rows.  At eight equal bands a thread, a thread waited at the end of each pass for
+# the other's last band, half a band on average (the lighting pass's bands cost a quarter
+# of a millisecond).
+GUIDED_SHARE = 2
 MIN_BAND_ITEMS = 256
 # How many band tables (and pixel passes' bands) a launcher keeps for reuse: a frame's
 # passes cut the same bands every frame, and building a pass's table in Python cost about
@@ -131,6 +138,25 @@ def band_count(total: int, threads: int, minimum: int, per_thread: int = BANDS_P
     return max(1, min(total, max(threads, min(threads * per_thread, total // minimum))))
 
 
+def guided_bands(total: int, threads: int, minimum: int) -> list[tuple[int, int]]:
+    """Contiguous bands (first, count), in order, covering 0 .. total - 1 once, that
+    shrink as they go (guided scheduling): each takes ``1 / (GUIDED_SHARE * threads)``
+    of what is left, none under ``minimum`` (but the last, which takes the rest).  The
+    threads take them in order, so the last bands of a pass are short and the threads
+    finish together even where the rows' cost differs (a sky above a mesh), without
+    cutting the whole pass as finely; one band for one thread."""
+    if threads <= 1:
+        return [(0, total)] if total > 0 else []
+    spans = []
+    first = 0
+    while first < total:
+        left = total - first
+        size = min(left, max(minimum, -(-left // (GUIDED_SHARE * threads))))
+        spans.append((first, size))
+        first += size
+    return spans
+
+
 def band(k: int, bands: int, total: int) -> tuple[int, int]:
     """Band ``k`` of ``bands`` over ``total`` rows or items: (first, count), the
     sizes differing by at most one, in order."""
@@ -147,40 +173,50 @@ class CostBands:
     ``measured`` takes each band's cost afterwards (its thread's CPU time: a band's cost
     spread evenly over its items); the next pass cuts the range into bands of equal
     measured cost.  A range of another length starts again from equal bands.  Where
-    the bands fall never changes what a pass computes, only which thread runs it."""
+    the bands fall never changes what a pass computes, only which thread runs it.
+
+    The measured cost is kept per band (its edges and the cost up to each), not per
+    item: the cost up to a point of the range is then piecewise linear, and a cut is
+    found by interpolating its inverse, a few microseconds for any range."""
 
     def __init__(self) -> None:
         """No cost measured yet: the first pass gets equal bands."""
-        self._density: np.ndarray | None = None
+        self._total = 0
+        self._edges: np.ndarray | None = None
+        self._cumulative: np.ndarray | None = None
 
     def spans(self, total: int, bands: int) -> list[tuple[int, int]]:
         """``bands`` contiguous bands (first, count), in order, covering 0 .. total - 1 once:
         equal (``band``) until a pass over ``total`` items was measured, then of equal
         measured cost, none empty."""
         bands = max(1, min(bands, total))
-        density = self._density
-        if density is None or len(density) != total or bands == 1:
+        if self._edges is None or self._total != total or bands == 1:
             return [band(k, bands, total) for k in range(bands)]
-        cumulative = np.cumsum(density)
-        # an item goes before the cut where the cost up to its middle is below the target
-        middles = cumulative - 0.5 * density
+        cumulative = self._cumulative
         targets = cumulative[-1] * np.arange(1, bands) / bands
+        # where the cost reaches each target; an item goes before the cut where the cost
+        # up to its middle is below the target
+        cuts = np.ceil(np.interp(targets, cumulative, self._edges) - 0.5).astype(np.int64).tolist()
         edges = [0]
-        for k, cut in enumerate(np.searchsorted(middles, targets), start=1):
+        for k, cut in enumerate(cuts, start=1):
             # none empty: after the band before, with an item left for each band after
-            edges.append(min(max(int(cut), edges[-1] + 1), total - (bands - k)))
+            edges.append(min(max(cut, edges[-1] + 1), total - (bands - k)))
         edges.append(total)
         return [(edges[k], edges[k + 1] - edges[k]) for k in range(bands)]
 
     def measured(self, spans: Sequence[tuple[int, int]], costs: Sequence[float]) -> None:
-        """What each band of ``spans`` cost (any unit, >= 0); a band that cost nothing
-        measurable keeps a little (1e-3 of the mean) so the next cut stays finite."""
-        total = sum(count for _, count in spans)
-        density = np.empty(total, dtype=np.float64)
-        for (first, count), cost in zip(spans, costs, strict=True):
-            density[first : first + count] = max(float(cost), 0.0) / max(count, 1)
-        floor = 1.0e-3 * float(density.mean()) if total else 0.0
-        self._density = np.maximum(density, max(floor, 1.0e-300))
+        """What each band of ``spans`` (contiguous, in order, from 0) cost (any unit, >= 0);
+        a band that cost nothing measurable keeps a little (1e-3 of the mean cost an item)
+        so the next cut stays finite."""
+        counts = np.array([count for _, count in spans], dtype=np.float64)
+        cost = np.maximum(np.asarray(costs, dtype=np.float64), 0.0)
+        total = int(counts.sum())
+        floor = max(1.0e-3 * float(cost.sum()) / total if total else 0.0, 1.0e-300)
+        kept = counts > 0
+        counts, cost = counts[kept], np.maximum(cost[kept], floor * counts[kept])
+        self._total = total
+        self._edges = np.concatenate(([0.0], np.cumsum(counts)))
+        self._cumulative = np.concatenate(([0.0], np.cumsum(cost)))
 
 
 def item_group(device: wp.context.Device) -> int:
@@ -387,8 +423,8 @@ class Launcher:
         rows of the ``height`` (default: all of them).  ``bands_per_thread``: how finely
         the Python pool cuts the rows (``FEW_BANDS_PER_THREAD`` for a short pass of even
         rows, where a band's Python would cost more than the balance gains); the native
-        band threads, whose bands cost about a microsecond each, always cut
-        ``BANDS_PER_THREAD``.
+        band threads, whose bands cost about a microsecond each, always take shrinking
+        bands (``guided_bands``).
         """
         first, stop = (0, height) if rows is None else (max(0, rows[0]), min(height, rows[1]))
         count = stop - first
@@ -399,15 +435,18 @@ class Launcher:
             self.launch(kernel, 0, (count, width), [*inputs, first, 1, 1])
             return
 
-        per_thread = BANDS_PER_THREAD if self._bands is not None else bands_per_thread
+        native = self._bands is not None
 
         def launches() -> list[Launch]:
-            bands = band_count(count, self.threads, MIN_BAND_ROWS, per_thread)
-            return [
-                ((rows, 1), (first + row0, 1, width)) for row0, rows in (band(k, bands, count) for k in range(bands))
-            ]
+            if native:
+                spans = guided_bands(count, self.threads, MIN_BAND_ROWS)
+            else:
+                bands = band_count(count, self.threads, MIN_BAND_ROWS, bands_per_thread)
+                spans = [band(k, bands, count) for k in range(bands)]
+            return [((rows, 1), (first + row0, 1, width)) for row0, rows in spans]
 
-        self.launch_bands(kernel, inputs, kept(self._pixel_bands, (first, count, width, per_thread), launches))
+        key = (first, count, width, "guided" if native else bands_per_thread)
+        self.launch_bands(kernel, inputs, kept(self._pixel_bands, key, launches))
 
     def launch_items(
         self, kernel: wp.Kernel, count: int, inputs: Sequence[Any], min_band_items: int = MIN_BAND_ITEMS

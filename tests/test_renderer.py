@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 
 import numpy as np
@@ -177,3 +178,29 @@ def test_automatic_exposure_meters_the_raster_layer_as_drawn(device: str, mode: 
         post.auto_exposure(r.buffers.raster_color, r.buffers.gbuffer.triangle_id)
         assert frame.stats["exposure_ev"] != 0.0
         assert frame.stats["exposure_ev"] == post.last_exposure_ev
+
+
+def test_a_camera_changed_in_place_is_drawn_and_checked_again(device: str) -> None:
+    """The renderer keeps the last frame's kernel camera while the camera's values stay
+    the same; a camera moved in place (the same object), zoomed or made unusable between
+    frames is drawn from, or refused by, its new values, as a fresh renderer would."""
+    scene = sphere_scene()
+    cam = scene.cameras[0]
+    settings = RenderSettings(width=W, height=H, device=device)
+    depths, states = [], []
+    with Renderer(scene, settings) as r:
+        for change in (None, "move", "zoom"):
+            if change == "move":
+                cam.cam_to_world[0, 3] += 1.5
+            elif change == "zoom":
+                cam.focal_length *= 2.0
+            depths.append(r.render(cam).aovs()["depth"].copy())
+            np.testing.assert_array_equal(r.render(cam).aovs()["depth"], depths[-1])
+            states.append(copy.deepcopy(cam))
+        cam.cam_to_world[:3, :3] = 0.0  # scaled by 0: no view
+        with pytest.raises(RenderSettingsError, match="scales it by 0"):
+            r.render(cam)
+    assert not np.array_equal(depths[1], depths[0]) and not np.array_equal(depths[2], depths[1])
+    for depth, state in zip(depths, states, strict=True):
+        with Renderer(scene, settings) as fresh:
+            np.testing.assert_array_equal(fresh.render(state).aovs()["depth"], depth)

@@ -29,6 +29,8 @@ the thread that ran it.
 
 from __future__ import annotations
 
+import bisect
+import math
 import os
 import threading
 import time
@@ -182,23 +184,26 @@ class CostBands:
     def __init__(self) -> None:
         """No cost measured yet: the first pass gets equal bands."""
         self._total = 0
-        self._edges: np.ndarray | None = None
-        self._cumulative: np.ndarray | None = None
+        self._edges: list[int] = []
+        self._cumulative: list[float] = []
 
     def spans(self, total: int, bands: int) -> list[tuple[int, int]]:
         """``bands`` contiguous bands (first, count), in order, covering 0 .. total - 1 once:
         equal (``band``) until a pass over ``total`` items was measured, then of equal
         measured cost, none empty."""
         bands = max(1, min(bands, total))
-        if self._edges is None or self._total != total or bands == 1:
+        if not self._edges or self._total != total or bands == 1:
             return [band(k, bands, total) for k in range(bands)]
-        cumulative = self._cumulative
-        targets = cumulative[-1] * np.arange(1, bands) / bands
-        # where the cost reaches each target; an item goes before the cut where the cost
-        # up to its middle is below the target
-        cuts = np.ceil(np.interp(targets, cumulative, self._edges) - 0.5).astype(np.int64).tolist()
+        edges_in, cumulative = self._edges, self._cumulative
         edges = [0]
-        for k, cut in enumerate(cuts, start=1):
+        for k in range(1, bands):
+            # where the cost reaches the target (linear within a measured band); an item
+            # goes before the cut where the cost up to its middle is below the target
+            target = cumulative[-1] * k / bands
+            j = min(bisect.bisect_right(cumulative, target), len(cumulative) - 1)
+            low, high = cumulative[j - 1], cumulative[j]
+            at = edges_in[j - 1] + (target - low) / (high - low) * (edges_in[j] - edges_in[j - 1])
+            cut = math.ceil(at - 0.5)
             # none empty: after the band before, with an item left for each band after
             edges.append(min(max(cut, edges[-1] + 1), total - (bands - k)))
         edges.append(total)
@@ -208,15 +213,15 @@ class CostBands:
         """What each band of ``spans`` (contiguous, in order, from 0) cost (any unit, >= 0);
         a band that cost nothing measurable keeps a little (1e-3 of the mean cost an item)
         so the next cut stays finite."""
-        counts = np.array([count for _, count in spans], dtype=np.float64)
-        cost = np.maximum(np.asarray(costs, dtype=np.float64), 0.0)
-        total = int(counts.sum())
-        floor = max(1.0e-3 * float(cost.sum()) / total if total else 0.0, 1.0e-300)
-        kept = counts > 0
-        counts, cost = counts[kept], np.maximum(cost[kept], floor * counts[kept])
+        total = sum(count for _, count in spans)
+        costs = [max(float(cost), 0.0) for cost in costs]
+        floor = max(1.0e-3 * sum(costs) / total if total else 0.0, 1.0e-300)
         self._total = total
-        self._edges = np.concatenate(([0.0], np.cumsum(counts)))
-        self._cumulative = np.concatenate(([0.0], np.cumsum(cost)))
+        self._edges, self._cumulative = [0], [0.0]
+        for (_, count), cost in zip(spans, costs, strict=True):
+            if count > 0:
+                self._edges.append(self._edges[-1] + count)
+                self._cumulative.append(self._cumulative[-1] + max(cost, floor * count))
 
 
 def item_group(device: wp.context.Device) -> int:

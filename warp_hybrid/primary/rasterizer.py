@@ -34,7 +34,7 @@ import warp as wp
 from ..core.camera import CameraGPU
 from ..core.gbuffer import GBuffer
 from ..core.rows import RowSpan
-from ..parallel import CostBands, Launcher, band, band_count
+from ..parallel import CostBands, Launcher, band, band_count, kept
 from ..scene.device import DeviceScene
 from ..timing import StageTimer
 from . import kernels
@@ -45,6 +45,9 @@ from .coverage import EMPTY_KEY, MODE_COUNT, MODE_DEPTH, RasterTarget
 _EMPTY_KEY = int(EMPTY_KEY.value)
 # The fewest clusters a band of the coverage pass holds.
 MIN_BAND_CLUSTERS = 16
+# How many coverage targets a rasterizer keeps (a frame's one per thread slot, or the
+# moved rows' bands of a still view).
+KEPT_TARGETS = 32
 
 
 class Rasterizer(PrimaryVisibility):
@@ -60,6 +63,8 @@ class Rasterizer(PrimaryVisibility):
         self._bounds_of: tuple[weakref.ref, int] | None = None
         # The coverage pass's bands of clusters, cut where the last frame's cost lay.
         self._cluster_bands = CostBands()
+        # Coverage targets by (keys' data, shape, slot, mode, rows): ``_target``.
+        self._targets: dict[tuple, RasterTarget] = {}
 
     @property
     def projected_points(self) -> ProjectedPoints | None:
@@ -81,7 +86,23 @@ class Rasterizer(PrimaryVisibility):
         shape = (self.launcher.threads, height, width)
         if self._keys is None or self._keys.shape != shape:
             self._keys = wp.empty(shape, dtype=wp.uint64, device=self.launcher.device)
+            self._targets.clear()  # (they hold the buffer before)
         return self._keys
+
+    def _target(self, keys: wp.array, slot: int, mode: int, rows: RowSpan) -> RasterTarget:
+        """The coverage target: slice ``slot`` of ``keys`` in ``mode``, rows ``rows``; the
+        one made before for the same (a frame asks for the same targets as the frame
+        before, and a Warp struct's fields cost microseconds each to set)."""
+
+        def make() -> RasterTarget:
+            target = RasterTarget()
+            target.keys = keys
+            target.slot = slot
+            target.mode = mode
+            target.row_begin, target.row_end = rows
+            return target
+
+        return kept(self._targets, (keys.ptr, keys.shape, slot, mode, rows), make, KEPT_TARGETS)
 
     def _transform_points(self, scene: DeviceScene, camera: CameraGPU) -> ProjectedPoints:
         """The scene's points in camera space and on screen (buffers reused between
@@ -132,12 +153,7 @@ class Rasterizer(PrimaryVisibility):
         clusters = bounds.shape[0] if bounds is not None else 0
 
         def inputs(slot: int, band_rows: RowSpan = (top, bottom)) -> list:
-            target = RasterTarget()
-            target.keys = keys
-            target.slot = slot
-            target.mode = mode
-            target.row_begin, target.row_end = band_rows
-            return [scene.gpu, camera, pts, target, bounds, count]
+            return [scene.gpu, camera, pts, self._target(keys, slot, mode, band_rows), bounds, count]
 
         if clusters < threads * MIN_BAND_CLUSTERS or threads == 1:
             # piece k clears and covers its band of rows of slice 0, every cluster each
@@ -185,4 +201,5 @@ class Rasterizer(PrimaryVisibility):
         shape = (self.launcher.threads, camera.height, camera.width)
         keys = wp.empty(shape, dtype=wp.uint64, device=self.launcher.device)
         written = self._rasterize(scene, camera, keys, MODE_COUNT, 0)
+        self._targets = {key: t for key, t in self._targets.items() if key[0] != keys.ptr}  # (its own buffer)
         return keys.numpy()[:written].sum(axis=0).astype(np.int64)

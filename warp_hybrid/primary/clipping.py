@@ -26,11 +26,38 @@ _vec9i = wp.types.vector(length=9, dtype=wp.int32)
 @wp.struct
 class ProjectedPoints:
     """The scene's points transformed once per frame: ``camera`` in camera space (x
-    right, y up, z = view depth) and, in front of the near plane, ``screen`` (x, y in
-    pixels, view depth)."""
+    right, y up, z = view depth), ``outcodes`` (``outcode``: where each lies against the
+    view frustum) and, in front of the near plane, ``screen`` (x, y in pixels, view
+    depth)."""
 
     camera: wp.array(dtype=wp.vec3)
+    outcodes: wp.array(dtype=wp.int32)
     screen: wp.array(dtype=wp.vec3)
+
+
+#: ``outcode``'s bits: beyond the near plane (z < near), beyond the far plane, right of
+#: the right plane (x > tan_x z), left of the left one, above the top one, below the
+#: bottom one; and in front of the near plane (z >= near, not the first bit's negation
+#: where z is NaN).  A triangle whose corners share one of the first six bits lies wholly
+#: outside the view (``OUTSIDE_BITS``, its trivial reject); it lies wholly in front of the
+#: near plane where all three have ``IN_FRONT``.
+BEHIND_NEAR, BEYOND_FAR, RIGHT_OF, LEFT_OF, ABOVE, BELOW, IN_FRONT = (1 << k for k in range(7))
+OUTSIDE_BITS = wp.constant(BEHIND_NEAR | BEYOND_FAR | RIGHT_OF | LEFT_OF | ABOVE | BELOW)
+IN_FRONT_BIT = wp.constant(IN_FRONT)
+
+
+@wp.func(inline=True)
+def outcode(c: wp.vec3, near: float, far: float, tan_x: float, tan_y: float) -> int:
+    """Camera-space point ``c``'s bits against the view frustum of a camera's ``near``,
+    ``far``, ``tan_x`` and ``tan_y`` (``OUTSIDE_BITS``, ``IN_FRONT_BIT``): each per-point
+    test of a triangle's trivial rejects, made once per point rather than once per
+    triangle corner."""
+    tz_x = tan_x * c[2]
+    tz_y = tan_y * c[2]
+    bits = wp.where(c[2] < near, 1, 0) | wp.where(c[2] > far, 2, 0)
+    bits = bits | wp.where(c[0] > tz_x, 4, 0) | wp.where(-c[0] > tz_x, 8, 0)
+    bits = bits | wp.where(c[1] > tz_y, 16, 0) | wp.where(-c[1] > tz_y, 32, 0)
+    return bits | wp.where(c[2] >= near, 64, 0)
 
 
 @wp.func(inline=True)

@@ -62,7 +62,16 @@ from ..core.scene_gpu import FLAG_VERTEX_COLOR, SceneGPU
 from ..scene.device.surface import SURFACE_CPP, UV_FOOTPRINT_CPP, is_cut_away, samples_textures, surface_at_grad
 from ..scene.device.wide_bvh import WideBVHGPU, WideHit, wide_closest
 from ..scene.model import Wrap
-from .clipping import ProjectedPoints, in_guard_band, project, raster_clipped, to_camera
+from .clipping import (
+    IN_FRONT_BIT,
+    OUTSIDE_BITS,
+    ProjectedPoints,
+    in_guard_band,
+    outcode,
+    project,
+    raster_clipped,
+    to_camera,
+)
 from .cover_batch import BATCH_TRIANGLES, cover_batch
 from .coverage import EMPTY_KEY, RasterTarget, raster_triangle
 from .hit_record import EXACT_HIT_CPP, exact_hit, pixel_footprint, sample_steps
@@ -92,10 +101,12 @@ def camera_points_kernel(
     (x right, y up, z = view depth) and, in front of the near plane, on screen (x, y in
     pixels, view depth): once per vertex rather than once per triangle corner."""
     first = start + wp.tid() * group
+    near, far, tan_x, tan_y = cam.near, cam.far, cam.tan_x, cam.tan_y
     for i in range(first, wp.min(first + group, stop)):
         c = to_camera(cam, scene.points[i])
         pts.camera[i] = c
-        if c[2] >= cam.near:
+        pts.outcodes[i] = outcode(c, near, far, tan_x, tan_y)
+        if c[2] >= near:
             pts.screen[i] = project(cam, c)
 
 
@@ -189,26 +200,13 @@ def _cover_triangle(scene: SceneGPU, cam: CameraGPU, pts: ProjectedPoints, targe
     i0 = scene.indices[3 * tri]
     i1 = scene.indices[3 * tri + 1]
     i2 = scene.indices[3 * tri + 2]
-    c0 = pts.camera[i0]
-    c1 = pts.camera[i1]
-    c2 = pts.camera[i2]
-
     # Trivial rejects: wholly behind the near plane, beyond the far plane, or outside
-    # one side plane of the view frustum.
-    if c0[2] < cam.near and c1[2] < cam.near and c2[2] < cam.near:
-        return
-    if c0[2] > cam.far and c1[2] > cam.far and c2[2] > cam.far:
-        return
-    if c0[0] > cam.tan_x * c0[2] and c1[0] > cam.tan_x * c1[2] and c2[0] > cam.tan_x * c2[2]:
-        return
-    if -c0[0] > cam.tan_x * c0[2] and -c1[0] > cam.tan_x * c1[2] and -c2[0] > cam.tan_x * c2[2]:
-        return
-    if c0[1] > cam.tan_y * c0[2] and c1[1] > cam.tan_y * c1[2] and c2[1] > cam.tan_y * c2[2]:
-        return
-    if -c0[1] > cam.tan_y * c0[2] and -c1[1] > cam.tan_y * c1[2] and -c2[1] > cam.tan_y * c2[2]:
+    # one side plane of the view frustum (the corners' outcodes share a bit).
+    common = pts.outcodes[i0] & pts.outcodes[i1] & pts.outcodes[i2]
+    if (common & OUTSIDE_BITS) != 0:
         return
 
-    if c0[2] >= cam.near and c1[2] >= cam.near and c2[2] >= cam.near:
+    if (common & IN_FRONT_BIT) != 0:
         s0 = pts.screen[i0]
         s1 = pts.screen[i1]
         s2 = pts.screen[i2]

@@ -111,6 +111,7 @@ class Rasterizer(PrimaryVisibility):
         if self._points is None or self._points.camera.shape[0] != count:
             self._points = ProjectedPoints()
             self._points.camera = wp.zeros(count, dtype=wp.vec3, device=self.launcher.device)
+            self._points.outcodes = wp.zeros(count, dtype=wp.int32, device=self.launcher.device)
             self._points.screen = wp.zeros(count, dtype=wp.vec3, device=self.launcher.device)
         self.launcher.launch_groups(kernels.camera_points_kernel, count, [scene.gpu, camera, self._points])
         return self._points

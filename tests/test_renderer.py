@@ -7,6 +7,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+import warp as wp
 
 from warp_hybrid.errors import RenderSettingsError, SceneError
 from warp_hybrid.post.postprocess import PostProcess
@@ -204,3 +205,36 @@ def test_a_camera_changed_in_place_is_drawn_and_checked_again(device: str) -> No
     for depth, state in zip(depths, states, strict=True):
         with Renderer(scene, settings) as fresh:
             np.testing.assert_array_equal(fresh.render(state).aovs()["depth"], depth)
+
+
+@pytest.mark.parametrize("mode", ["raster", "hybrid"])
+def test_the_emission_channel_follows_the_scene_to_no_emitter_and_back(device: str, mode: str) -> None:
+    """A scene without an emissive material leaves the emission channel at its zero once
+    it holds zero everywhere (the surface pass no longer writes it); a scene updated from
+    an emitter to none and back gets, frame by frame, the G-buffer and colour a fresh
+    renderer of that scene gets."""
+    glowing = sphere_scene()
+    glowing = dataclasses.replace(
+        glowing, materials=[dataclasses.replace(glowing.materials[0], emissive=(2.0, 1.0, 0.5)), glowing.materials[1]]
+    )
+    dark = sphere_scene()
+    settings = dict(width=W, height=H, device=device, mode=mode, exposure_ev=0.0, threads=2)
+    cam = dark.cameras[0]
+    with Renderer(glowing, RenderSettings(**settings)) as r:
+        for scene in (glowing, dark, dark, glowing, dark):
+            r.update_scene(scene)
+            frame = r.render(cam)
+            gb = frame.gbuffer
+            with Renderer(scene, RenderSettings(**settings)) as fresh:
+                reference = fresh.render(cam)
+            np.testing.assert_array_equal(gb.channel_numpy("emission"), reference.gbuffer.channel_numpy("emission"))
+            np.testing.assert_array_equal(frame.color, reference.color)
+            assert gb.channel_numpy("emission").any() == (scene is glowing)
+            assert gb.emission_background == (scene is dark)
+        # (a channel known to hold zero is not written again: what else writes it must clear)
+        gb.emission.fill_(wp.vec3(7.0, 7.0, 7.0))
+        r.render(cam)
+        assert (gb.channel_numpy("emission") == 7.0).all()
+        gb.clear()
+        r.render(cam)
+        np.testing.assert_array_equal(gb.channel_numpy("emission"), reference.gbuffer.channel_numpy("emission"))

@@ -84,8 +84,10 @@ class GBuffer:
     ``background_blocks`` ((height, ceil(width / SURFACE_CHUNK_CPU)) int32): per row, whether each
     block of ``SURFACE_CHUNK_CPU`` pixels (from column 0) holds the background record, 1 where the
     surface pass's row loop wrote it there, 0 where it wrote a surface or does not know
-    (``clear``); a block that sees no surface again is left as it is.  The channels are
-    the primary passes' to write: anything else that writes one must ``clear``."""
+    (``clear``); a block that sees no surface again is left as it is.  Likewise
+    ``emission_background``: whether the emission channel holds the background's zero in
+    every pixel (``surface_writes_emission``).  The channels are the primary passes' to
+    write: anything else that writes one must ``clear``."""
 
     def __init__(self, width: int, height: int, device: wp.context.Device | str) -> None:
         """Allocate a G-buffer of ``width`` x ``height`` on ``device``, cleared."""
@@ -97,6 +99,7 @@ class GBuffer:
         self.background_blocks = wp.zeros(
             (self.height, -(-self.width // SURFACE_CHUNK_CPU)), dtype=wp.int32, device=self.device
         )
+        self.emission_background = False
         self._rows = GBufferRows()
         self._kernel_arrays = GBufferArrays()
         for name, array in self._arrays.items():
@@ -120,12 +123,25 @@ class GBuffer:
         (the background's values where no surface is hit), so frames need no clear.
         ``background_blocks`` is zeroed (unknown)."""
         self.background_blocks.zero_()
+        self.emission_background = True
         for c in CHANNELS:
             array = self._arrays[c.name]
             if c.background == 0.0:
                 array.zero_()
             else:
                 array.fill_(c.background)
+
+    def surface_writes_emission(self, emissive: bool, every_row: bool) -> bool:
+        """Whether the surface pass about to run must write the emission channel, for a
+        scene with (``emissive``) or without an emissive material, over every row
+        (``every_row``) or some: always for an emissive scene; for one without (whose
+        every pixel emits the background's zero) only until the channel holds zero
+        everywhere, which a pass over every row leaves.  Records what the pass leaves,
+        so call it once per pass."""
+        write = emissive or not self.emission_background
+        if write:
+            self.emission_background = not emissive and every_row
+        return write
 
     def rows(self) -> GBufferRows:
         """The flat kernel-side views (what the primary passes write): one struct, built

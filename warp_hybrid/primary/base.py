@@ -49,11 +49,13 @@ class PrimaryVisibility(RenderPass):
             )
         self.find_hits(scene, camera, gbuffer, timer, rows)
         with timer.stage("surface"):
+            every_row = rows is None or (rows[0] <= 0 and rows[1] >= gbuffer.height)
+            write_emission = gbuffer.surface_writes_emission(scene.features.emission, every_row)
             self.launcher.launch_pixels(
                 kernels.surface_kernel,
                 gbuffer.height,
                 gbuffer.width,
-                [scene.gpu, camera, gbuffer.rows(), gbuffer.background_blocks],
+                [scene.gpu, camera, gbuffer.rows(), gbuffer.background_blocks, int(write_emission)],
                 rows=rows,
             )
 

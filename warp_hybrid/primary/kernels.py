@@ -587,10 +587,16 @@ def _background_lanes_cpp(keep: str) -> str:
     return " ".join(lines)
 
 
+#: The channels the surface row loop writes only where its argument of this name is
+#: non-zero (``GBuffer.surface_writes_emission``: a scene without an emissive material
+#: leaves the emission channel at the background's zero, once it is there).
+_OPTIONAL_CHANNELS = {"emission": "write_emission"}
+
 #: C++: the chunk's channels written to the G-buffer's rows from the lane arrays.
 _WRITE_LANES_CPP = (
     " ".join(
-        f"wh_write_floats((float*)(gb.{channel}.data + row + xs), {len(lanes)}, n, "
+        (f"if ({_OPTIONAL_CHANNELS[channel]} != 0) " if channel in _OPTIONAL_CHANNELS else "")
+        + f"wh_write_floats((float*)(gb.{channel}.data + row + xs), {len(lanes)}, n, "
         f"{', '.join(lanes + ('nullptr',) * (4 - len(lanes)))});"
         for channel, lanes in _SURFACE_LANES.items()
     )
@@ -866,6 +872,7 @@ def _surface_span(
     cam: CameraGPU,
     gb: GBufferRows,
     background_blocks: wp.array2d(dtype=wp.int32),
+    write_emission: int,
     ddx: wp.vec3,
     ddy: wp.vec3,
     y: int,
@@ -876,8 +883,9 @@ def _surface_span(
     (``_SURFACE_SPAN_CPP``): pixel by pixel the same bits as ``_write_surface``, the
     background's values (``gbuffer.BACKGROUND``) where no surface is hit (kept where a
     block of ``background_blocks`` says they are there already, and that flag kept);
-    ``ddx``, ``ddy``: the camera ray's steps (``hit_record.sample_steps``).  Returns how
-    many hit pixels it left for the scalar path (their material has a normal map)."""
+    the emission channel only where ``write_emission`` is non-zero; ``ddx``, ``ddy``:
+    the camera ray's steps (``hit_record.sample_steps``).  Returns how many hit pixels
+    it left for the scalar path (their material has a normal map)."""
     ...
 
 
@@ -887,6 +895,7 @@ def surface_kernel(
     cam: CameraGPU,
     gb: GBufferRows,
     background_blocks: wp.array2d(dtype=wp.int32),
+    write_emission: int,
     row0: int,
     row_step: int,
     cols: int,
@@ -894,15 +903,16 @@ def surface_kernel(
     """Per row (a launch item's columns): the surface named by each pixel's hit record
     (whichever primary path wrote it) into the remaining G-buffer channels (the
     background's values where the pixel sees no surface; ``background_blocks``: the
-    G-buffer's ``background_blocks``), in a native row loop (``_surface_span``); the
-    pixels it leaves (normal-mapped materials) one at a time."""
+    G-buffer's ``background_blocks``; the emission channel only where ``write_emission``
+    is non-zero, ``GBuffer.surface_writes_emission``), in a native row loop
+    (``_surface_span``); the pixels it leaves (normal-mapped materials) one at a time."""
     r, c = wp.tid()
     y = row0 + r * row_step
     first = c * cols
     stop = wp.min(first + cols, cam.width)
     if first < stop:
         steps = sample_steps(cam)
-        if _surface_span(scene, cam, gb, background_blocks, steps[0], steps[1], y, first, stop) > 0:
+        if _surface_span(scene, cam, gb, background_blocks, write_emission, steps[0], steps[1], y, first, stop) > 0:
             for x in range(first, stop):
                 i = y * cam.width + x
                 tri = gb.triangle_id[i]

@@ -131,6 +131,30 @@ def test_a_nap_puts_the_helpers_to_sleep_and_a_pass_wakes_them() -> None:
         assert len(set(slots)) == 2
 
 
+def test_a_wake_up_call_has_sleeping_helpers_spin_until_the_next_pass() -> None:
+    """Helpers told to nap sleep; ``wake`` has every one of them up and spinning (with an
+    hour to spin, none sleeps again) before any pass is posted; the next pass has them
+    take part; a wake-up call where none sleeps changes nothing."""
+    with BandPool(wp.get_device("cpu"), 3, spin_ns=3_600_000_000_000) as pool:
+        _meet_in_one_pass(pool)
+        pool.nap()
+        deadline = time.monotonic() + 30.0
+        while pool.sleepers < 2 and time.monotonic() < deadline:
+            time.sleep(0.001)
+        assert pool.sleepers == 2
+        pool.wake()
+        deadline = time.monotonic() + 30.0
+        while pool.sleepers > 0 and time.monotonic() < deadline:
+            time.sleep(0.001)
+        assert pool.sleepers == 0
+        pool.wake()
+        time.sleep(0.05)
+        assert pool.sleepers == 0
+        met, slots = _meet_in_one_pass(pool)
+        np.testing.assert_array_equal(met, [1, 1])
+        assert len(set(slots)) == 2
+
+
 def test_closing_stops_the_helpers() -> None:
     def helpers() -> set[threading.Thread]:
         return {t for t in threading.enumerate() if t.name.startswith("warp-hybrid-band-")}

@@ -9,7 +9,7 @@ the helper threads never come back to Python while they have work: each sits in 
 native loop (a one-item Warp kernel, ``_worker_kernel``) that watches a shared *board*
 and takes bands as they are posted, spinning for a short while after the last one
 (``SPIN_NS_DEFAULT``), then sleeping on a pthread condition variable (at once after
-``BandPool.nap``).  The caller posts a pass (``BandPool.run``: one more native call
+``BandPool.nap``) until a pass is posted or ``BandPool.wake`` calls them to spin again.  The caller posts a pass (``BandPool.run``: one more native call
 with the GIL released), takes bands itself and returns once every band taken is done.
 
 The board (an int64 Warp array) holds one pass at a time:
@@ -67,11 +67,12 @@ import warp as wp
     BUSY_NS,
     ITEMS_DONE,
     RAN,
-) = range(13)
+    WAKE,
+) = range(14)
 MAX_STAGES = 2
 MAX_TAIL = 4
 MAX_THREADS = 16
-FN = RAN + 1  # .. + MAX_STAGES: each stage's kernel entry point
+FN = WAKE + 1  # .. + MAX_STAGES: each stage's kernel entry point
 TAILS = FN + MAX_STAGES  # .. + MAX_STAGES: each stage's count of trailing integers
 TAIL_OFFSETS = TAILS + MAX_STAGES  # + stage * MAX_TAIL + i: their byte offsets
 ARGS = TAIL_OFFSETS + MAX_STAGES * MAX_TAIL  # + stage * MAX_THREADS + slot: argument blocks
@@ -211,6 +212,7 @@ const PthreadFn lock = (PthreadFn)b[{LOCK_FN}];
 const PthreadFn unlock = (PthreadFn)b[{UNLOCK_FN}];
 const WaitFn wait = (WaitFn)b[{WAIT_FN}];
 long long idle_since = now_ns(b[{CLOCK_WALL}]);
+long long woken = load({WAKE});  // the wake-up calls seen (``BandPool.wake``)
 for (int spins = 0;; ++spins) {{
     if (load({QUIT})) return 0;
     if (take(slot)) {{
@@ -220,14 +222,20 @@ for (int spins = 0;; ++spins) {{
     }}
     WH_PAUSE();
     if ((spins & 255) != 255) continue;
+    if (load({WAKE}) != woken) {{  // told a pass is coming: spin afresh
+        woken = load({WAKE});
+        idle_since = now_ns(b[{CLOCK_WALL}]);
+        continue;
+    }}
     if (!load({NAP}) && now_ns(b[{CLOCK_WALL}]) - idle_since < b[{SPIN_NS}]) continue;
     // long idle, or told to nap: sleep until a pass is posted (the caller wakes the
-    // sleepers after it posts)
+    // sleepers after it posts) or a wake-up call comes
     lock(mutex);
     __atomic_fetch_add(&b[{SLEEPERS}], 1, __ATOMIC_SEQ_CST);
-    while (!has_work() && !load({QUIT})) wait(cond, mutex);
+    while (!has_work() && !load({QUIT}) && load({WAKE}) == woken) wait(cond, mutex);
     __atomic_fetch_sub(&b[{SLEEPERS}], 1, __ATOMIC_SEQ_CST);
     unlock(mutex);
+    woken = load({WAKE});
     idle_since = now_ns(b[{CLOCK_WALL}]);
 }}
 #endif
@@ -260,13 +268,17 @@ return 0;
 """
 )
 
-_WAKE_CPP = f"""
+
+def _wake_cpp(slot: int) -> str:
+    """C++: add one to board slot ``slot`` (``QUIT``: the helpers return; ``WAKE``: the
+    sleeping ones spin again), then wake every sleeper."""
+    return f"""
 #if defined(__CUDA_ARCH__)
 return 0;
 #else
 long long* b = (long long*)board.data;
 typedef wp::int32 (*PthreadFn)(void*);
-__atomic_store_n(&b[{QUIT}], 1, __ATOMIC_SEQ_CST);
+__atomic_fetch_add(&b[{slot}], 1, __ATOMIC_SEQ_CST);
 ((PthreadFn)b[{LOCK_FN}])((void*)b[{MUTEX}]);
 ((PthreadFn)b[{BROADCAST_FN}])((void*)b[{COND}]);
 ((PthreadFn)b[{UNLOCK_FN}])((void*)b[{MUTEX}]);
@@ -283,8 +295,12 @@ def _worker_loop(board: wp.array(dtype=wp.int64), slot: int) -> int: ...
 def _run_pass(board: wp.array(dtype=wp.int64), bands: int) -> int: ...
 
 
-@wp.func_native(_WAKE_CPP)
+@wp.func_native(_wake_cpp(QUIT))
 def _quit_workers(board: wp.array(dtype=wp.int64)) -> int: ...
+
+
+@wp.func_native(_wake_cpp(WAKE))
+def _wake_workers(board: wp.array(dtype=wp.int64)) -> int: ...
 
 
 @wp.kernel
@@ -300,6 +316,11 @@ def _run_kernel(board: wp.array(dtype=wp.int64), bands: int):
 @wp.kernel
 def _quit_kernel(board: wp.array(dtype=wp.int64)):
     _quit_workers(board)
+
+
+@wp.kernel
+def _wake_kernel(board: wp.array(dtype=wp.int64)):
+    _wake_workers(board)
 
 
 @wp.kernel
@@ -465,6 +486,7 @@ class BandPool:
         self._host[CLOCK_CPU] = time.CLOCK_THREAD_CPUTIME_ID
         self._run = wp.launch(_run_kernel, dim=1, inputs=[self._board, 0], device=device, record_cmd=True)
         run_quit = wp.launch(_quit_kernel, dim=1, inputs=[self._board], device=device, record_cmd=True)
+        self._wake = wp.launch(_wake_kernel, dim=1, inputs=[self._board], device=device, record_cmd=True)
         helpers = [
             threading.Thread(
                 target=wp.launch,
@@ -493,6 +515,16 @@ class BandPool:
     def sleepers(self) -> int:
         """How many helper threads sleep now (the others spin or run bands)."""
         return int(self._host[SLEEPERS])
+
+    def wake(self) -> None:
+        """Wake the sleeping helper threads now, to spin until the next pass (for
+        ``SPIN_NS``): a caller about to post passes after a long idle (a frame after the
+        loop's wait for its time) calls it before its own work ahead of them, which the
+        helpers' wake-up (40-160 us on a virtual machine) then overlaps instead of
+        delaying the first pass.  Nothing where none sleeps."""
+        if self._host[SLEEPERS] > 0:
+            self._host[NAP] = 0
+            self._wake.launch()
 
     def nap(self) -> None:
         """Let the helper threads sleep now instead of spinning until the next pass (the

@@ -379,6 +379,12 @@ class Launcher:
             self._pool_bands.nap()
         self._bands = self._pool_bands if on else None
 
+    def wake(self) -> None:
+        """Wake the native band threads that sleep (``BandPool.wake``), before the work
+        ahead of a frame's first pass; nothing on the Python pool."""
+        if self._bands is not None:
+            self._bands.wake()
+
     def __enter__(self) -> Launcher:
         return self
 

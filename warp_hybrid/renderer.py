@@ -525,6 +525,7 @@ class Renderer:
         self, camera: Camera, window: FocusWindow | None, trace_deadline: float | None, host_copies: bool, spp: int
     ) -> Frame:
         """``render`` with ``spp`` samples per pixel."""
+        self.launcher.wake()  # (the band threads wake while the frame is set up)
         camera_gpu = self._camera_gpu(camera)
         if window is not None and not isinstance(window, FocusWindow):
             raise ArgumentTypeError(f"window must be a FocusWindow or None, got {type(window).__name__} {window!r}")

@@ -12,6 +12,7 @@ from __future__ import annotations
 import warp as wp
 
 from ..core.camera import CameraGPU
+from ..core.native_rows import LAMBDA_HEADER_CPP
 from ..core.scene_gpu import SceneGPU
 from .coverage import RasterTarget, raster_triangle
 
@@ -46,33 +47,77 @@ OUTSIDE_BITS = wp.constant(BEHIND_NEAR | BEYOND_FAR | RIGHT_OF | LEFT_OF | ABOVE
 IN_FRONT_BIT = wp.constant(IN_FRONT)
 
 
-@wp.func(inline=True)
+#: C++ (after ``LAMBDA_HEADER_CPP``), the one definition of a point's way to the screen, one
+#: Warp operation a call in the order the Warp code had them: ``wh_to_camera(cam, p)``,
+#: the point in camera space (x right, y up, z = view depth); ``wh_project(cam, c)``, a
+#: camera-space point's (screen x, screen y, view depth); ``wh_outcode(c, near, far, tan_x,
+#: tan_y)``, its bits against the view frustum (``OUTSIDE_BITS``, ``IN_FRONT_BIT``): each
+#: per-point test of a triangle's trivial rejects, made once per point.  ``cam`` is any
+#: ``CameraGPU``-like record.
+POINTS_CPP = """
+auto wh_to_camera = [&](const auto& cam, const wp::vec3& p) WH_INLINE -> wp::vec3 {
+    const wp::vec3 d = wp::sub(p, cam.origin);
+    return wp::vec3(wp::dot(d, cam.right), wp::dot(d, cam.up), wp::dot(d, cam.forward));
+};
+auto wh_project = [&](const auto& cam, const wp::vec3& c) WH_INLINE -> wp::vec3 {
+    const float hw = wp::mul(0.5f, (float)cam.width), hh = wp::mul(0.5f, (float)cam.height);
+    const float inv_z = wp::div(1.0f, c[2]);
+    return wp::vec3(wp::add(hw, wp::mul(wp::mul(c[0], inv_z), wp::div(hw, cam.tan_x))),
+                    wp::sub(hh, wp::mul(wp::mul(c[1], inv_z), wp::div(hh, cam.tan_y))), c[2]);
+};
+auto wh_outcode = [&](const wp::vec3& c, const float near, const float far, const float tan_x,
+                      const float tan_y) WH_INLINE -> int {
+    const float tz_x = wp::mul(tan_x, c[2]), tz_y = wp::mul(tan_y, c[2]);
+    return (c[2] < near ? 1 : 0) | (c[2] > far ? 2 : 0) | (c[0] > tz_x ? 4 : 0) | (wp::neg(c[0]) > tz_x ? 8 : 0) |
+           (c[1] > tz_y ? 16 : 0) | (wp::neg(c[1]) > tz_y ? 32 : 0) | (c[2] >= near ? 64 : 0);
+};
+"""
+
+
+@wp.func_native(LAMBDA_HEADER_CPP + POINTS_CPP + "return wh_outcode(c, near, far, tan_x, tan_y);")
 def outcode(c: wp.vec3, near: float, far: float, tan_x: float, tan_y: float) -> int:
     """Camera-space point ``c``'s bits against the view frustum of a camera's ``near``,
-    ``far``, ``tan_x`` and ``tan_y`` (``OUTSIDE_BITS``, ``IN_FRONT_BIT``): each per-point
-    test of a triangle's trivial rejects, made once per point rather than once per
-    triangle corner."""
-    tz_x = tan_x * c[2]
-    tz_y = tan_y * c[2]
-    bits = wp.where(c[2] < near, 1, 0) | wp.where(c[2] > far, 2, 0)
-    bits = bits | wp.where(c[0] > tz_x, 4, 0) | wp.where(-c[0] > tz_x, 8, 0)
-    bits = bits | wp.where(c[1] > tz_y, 16, 0) | wp.where(-c[1] > tz_y, 32, 0)
-    return bits | wp.where(c[2] >= near, 64, 0)
+    ``far``, ``tan_x`` and ``tan_y`` (``OUTSIDE_BITS``, ``IN_FRONT_BIT``; ``POINTS_CPP``)."""
+    ...
 
 
-@wp.func(inline=True)
+@wp.func_native(LAMBDA_HEADER_CPP + POINTS_CPP + "return wh_to_camera(cam, p);")
 def to_camera(cam: CameraGPU, p: wp.vec3) -> wp.vec3:
-    d = p - cam.origin
-    return wp.vec3(wp.dot(d, cam.right), wp.dot(d, cam.up), wp.dot(d, cam.forward))
+    """World point ``p`` in ``cam``'s camera space (``POINTS_CPP``)."""
+    ...
 
 
-@wp.func(inline=True)
+@wp.func_native(LAMBDA_HEADER_CPP + POINTS_CPP + "return wh_project(cam, c);")
 def project(cam: CameraGPU, c: wp.vec3) -> wp.vec3:
-    """Camera-space point -> (screen x, screen y, view depth)."""
-    hw = 0.5 * float(cam.width)
-    hh = 0.5 * float(cam.height)
-    inv_z = 1.0 / c[2]
-    return wp.vec3(hw + c[0] * inv_z * (hw / cam.tan_x), hh - c[1] * inv_z * (hh / cam.tan_y), c[2])
+    """Camera-space point -> (screen x, screen y, view depth) (``POINTS_CPP``)."""
+    ...
+
+
+@wp.func_native(
+    LAMBDA_HEADER_CPP
+    + POINTS_CPP
+    + """
+const wp::vec3* points_in = points.data;
+wp::vec3* camera = pts.camera.data;
+int* outcodes = pts.outcodes.data;
+wp::vec3* screen = pts.screen.data;
+const float near = cam.near, far = cam.far, tan_x = cam.tan_x, tan_y = cam.tan_y;
+// (every point's screen slot written back: its old value where it lies behind the near plane;
+// the arrays are the points' and three of this pass's own, which the compiler cannot tell apart)
+#pragma clang loop vectorize(assume_safety)
+for (int i = first; i < stop; ++i) {
+    const wp::vec3 c = wh_to_camera(cam, points_in[i]);
+    camera[i] = c;
+    outcodes[i] = wh_outcode(c, near, far, tan_x, tan_y);
+    const wp::vec3 s = wh_project(cam, c);
+    screen[i] = wh_select(c[2] >= near, s, screen[i]);
+}
+"""
+)
+def project_points(points: wp.array(dtype=wp.vec3), cam: CameraGPU, pts: ProjectedPoints, first: int, stop: int):
+    """Points ``first <= i < stop`` (contiguous) into ``pts``: camera space, outcodes and,
+    in front of the near plane, screen points (``POINTS_CPP``), in a loop across them."""
+    ...
 
 
 @wp.func(inline=True)

@@ -67,8 +67,7 @@ from .clipping import (
     OUTSIDE_BITS,
     ProjectedPoints,
     in_guard_band,
-    outcode,
-    project,
+    project_points,
     raster_clipped,
     to_camera,
 )
@@ -90,24 +89,20 @@ CULL_MARGIN = wp.constant(1.0e-5)
 
 @wp.kernel
 def camera_points_kernel(
-    scene: SceneGPU,
+    points: wp.array(dtype=wp.vec3),
     cam: CameraGPU,
     pts: ProjectedPoints,
     start: int,
     stop: int,
     group: int,
 ):
-    """The points of this launch item's group (``parallel.group_launch``) in camera space
-    (x right, y up, z = view depth) and, in front of the near plane, on screen (x, y in
-    pixels, view depth): once per vertex rather than once per triangle corner."""
+    """The scene's ``points`` of this launch item's group (``parallel.group_launch``) in
+    camera space (x right, y up, z = view depth), their outcodes and, in front of the near
+    plane, on screen (x, y in pixels, view depth): once per vertex rather than once per
+    triangle corner (``clipping.project_points``; the points alone are passed, not the
+    scene's record, which a launch item copies)."""
     first = start + wp.tid() * group
-    near, far, tan_x, tan_y = cam.near, cam.far, cam.tan_x, cam.tan_y
-    for i in range(first, wp.min(first + group, stop)):
-        c = to_camera(cam, scene.points[i])
-        pts.camera[i] = c
-        pts.outcodes[i] = outcode(c, near, far, tan_x, tan_y)
-        if c[2] >= near:
-            pts.screen[i] = project(cam, c)
+    project_points(points, cam, pts, first, wp.min(first + group, stop))
 
 
 @wp.func_native(

@@ -113,7 +113,7 @@ class Rasterizer(PrimaryVisibility):
             self._points.camera = wp.zeros(count, dtype=wp.vec3, device=self.launcher.device)
             self._points.outcodes = wp.zeros(count, dtype=wp.int32, device=self.launcher.device)
             self._points.screen = wp.zeros(count, dtype=wp.vec3, device=self.launcher.device)
-        self.launcher.launch_groups(kernels.camera_points_kernel, count, [scene.gpu, camera, self._points])
+        self.launcher.launch_groups(kernels.camera_points_kernel, count, [scene.gpu.points, camera, self._points])
         return self._points
 
     def _cluster_bounds(self, scene: DeviceScene) -> wp.array:

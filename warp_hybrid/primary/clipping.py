@@ -68,10 +68,22 @@ auto wh_project = [&](const auto& cam, const wp::vec3& c) WH_INLINE -> wp::vec3 
 auto wh_outcode = [&](const wp::vec3& c, const float near, const float far, const float tan_x,
                       const float tan_y) WH_INLINE -> int {
     const float tz_x = wp::mul(tan_x, c[2]), tz_y = wp::mul(tan_y, c[2]);
-    return (c[2] < near ? 1 : 0) | (c[2] > far ? 2 : 0) | (c[0] > tz_x ? 4 : 0) | (wp::neg(c[0]) > tz_x ? 8 : 0) |
-           (c[1] > tz_y ? 16 : 0) | (wp::neg(c[1]) > tz_y ? 32 : 0) | (c[2] >= near ? 64 : 0);
-};
-"""
+""" + (
+    "    return "
+    + " | ".join(
+        f"({test} ? {bit} : 0)"
+        for test, bit in (
+            ("c[2] < near", BEHIND_NEAR),
+            ("c[2] > far", BEYOND_FAR),
+            ("c[0] > tz_x", RIGHT_OF),
+            ("wp::neg(c[0]) > tz_x", LEFT_OF),
+            ("c[1] > tz_y", ABOVE),
+            ("wp::neg(c[1]) > tz_y", BELOW),
+            ("c[2] >= near", IN_FRONT),
+        )
+    )
+    + ";\n};\n"
+)
 
 
 @wp.func_native(LAMBDA_HEADER_CPP + POINTS_CPP + "return wh_outcode(c, near, far, tan_x, tan_y);")

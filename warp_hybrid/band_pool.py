@@ -9,8 +9,9 @@ the helper threads never come back to Python while they have work: each sits in 
 native loop (a one-item Warp kernel, ``_worker_kernel``) that watches a shared *board*
 and takes bands as they are posted, spinning for a short while after the last one
 (``SPIN_NS_DEFAULT``), then sleeping on a pthread condition variable (at once after
-``BandPool.nap``) until a pass is posted or ``BandPool.wake`` calls them to spin again.  The caller posts a pass (``BandPool.run``: one more native call
-with the GIL released), takes bands itself and returns once every band taken is done.
+``BandPool.nap``) until a pass is posted or ``BandPool.wake`` calls them to spin
+again.  The caller posts a pass (``BandPool.run``: one more native call with the GIL
+released), takes bands itself and returns once every band taken is done.
 
 The board (an int64 Warp array) holds one pass at a time:
 

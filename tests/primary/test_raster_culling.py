@@ -9,8 +9,9 @@ import warp as wp
 
 from warp_hybrid.core.camera import CameraGPU, make_camera_gpu
 from warp_hybrid.primary import clipping, kernels
+from warp_hybrid.primary.clipping import ProjectedPoints
 from warp_hybrid.scene.authoring.builders import look_at_camera, make_scene, quad
-from warp_hybrid.scene.model import Material
+from warp_hybrid.scene.model import Camera, Material
 
 
 @wp.kernel
@@ -19,18 +20,14 @@ def _culled(cam: CameraGPU, boxes: wp.array2d(dtype=wp.vec3), out: wp.array(dtyp
     out[i] = wp.where(kernels._box_culled(cam, boxes[i, 0], boxes[i, 1]), 1, 0)
 
 
-@wp.kernel
-def _outcodes(cam: CameraGPU, points: wp.array(dtype=wp.vec3), out: wp.array(dtype=wp.int32)):
-    i = wp.tid()
-    out[i] = clipping.outcode(points[i], cam.near, cam.far, cam.tan_x, cam.tan_y)
-
-
 def test_outcodes_are_the_trivial_rejects_tests_point_by_point(device: str) -> None:
     """Each bit of a point's outcode is one float32 test of the triangle's trivial rejects
     (z < near, z > far, x > tan_x z, -x > tan_x z, y > tan_y z, -y > tan_y z; z >= near),
     so the corners sharing a bit is the rejects' conjunction over them: points on both
-    sides of every plane, on the planes, and NaN (which is neither behind nor in front)."""
-    camera = look_at_camera((0.0, 0.0, 5.0), (0.0, 0.0, 0.0), hfov_deg=60.0, near=0.5, far=20.0)
+    sides of every plane, on the planes, and NaN (which is neither behind nor in front).
+    Through the points pass (``camera_points_kernel``) of a camera at the origin looking
+    down -Z, whose camera space is the world's with z negated, exactly."""
+    camera = Camera("/identity", np.eye(4), focal_length=20.0, horizontal_aperture=36.0, near=0.5, far=20.0)
     cam = make_camera_gpu(camera, 64, 48)
     rng = np.random.default_rng(3)
     c = rng.uniform(-30.0, 30.0, (5000, 3)).astype(np.float32)
@@ -38,9 +35,14 @@ def test_outcodes_are_the_trivial_rejects_tests_point_by_point(device: str) -> N
     c[:50, 2] = np.float32(cam.near)  # on the near plane
     c[50:100, 0] = tx * c[50:100, 2]  # on the right plane
     c[100:110] = np.nan
-    pts = wp.array(c, dtype=wp.vec3, device=device)
-    out = wp.zeros(len(c), dtype=wp.int32, device=device)
-    wp.launch(_outcodes, dim=len(c), inputs=[cam, pts, out], device=device)
+    pts = ProjectedPoints()
+    pts.camera = wp.zeros(len(c), dtype=wp.vec3, device=device)
+    pts.outcodes = wp.zeros(len(c), dtype=wp.int32, device=device)
+    pts.screen = wp.zeros(len(c), dtype=wp.vec3, device=device)
+    world = wp.array(c * np.float32([1.0, 1.0, -1.0]), dtype=wp.vec3, device=device)
+    wp.launch(kernels.camera_points_kernel, dim=len(c), inputs=[world, cam, pts, 0, len(c), 1], device=device)
+    np.testing.assert_array_equal(pts.camera.numpy(), c)  # (the camera space the bits are of)
+    out = pts.outcodes
     x, y, z = c[:, 0], c[:, 1], c[:, 2]
     with np.errstate(invalid="ignore"):
         tests = [z < np.float32(cam.near), z > np.float32(cam.far), x > tx * z, -x > tx * z, y > ty * z, -y > ty * z]

@@ -27,18 +27,18 @@ _vec9i = wp.types.vector(length=9, dtype=wp.int32)
 @wp.struct
 class ProjectedPoints:
     """The scene's points transformed once per frame: ``camera`` in camera space (x
-    right, y up, z = view depth), ``outcodes`` (``outcode``: where each lies against the
-    view frustum) and, in front of the near plane, ``screen`` (x, y in pixels, view
-    depth)."""
+    right, y up, z = view depth), ``outcodes`` (``POINTS_CPP``'s ``wh_outcode``: where
+    each lies against the view frustum) and, in front of the near plane, ``screen`` (x, y
+    in pixels, view depth)."""
 
     camera: wp.array(dtype=wp.vec3)
     outcodes: wp.array(dtype=wp.int32)
     screen: wp.array(dtype=wp.vec3)
 
 
-#: ``outcode``'s bits: beyond the near plane (z < near), beyond the far plane, right of
-#: the right plane (x > tan_x z), left of the left one, above the top one, below the
-#: bottom one; and in front of the near plane (z >= near, not the first bit's negation
+#: An outcode's bits (``POINTS_CPP``'s ``wh_outcode``): beyond the near plane (z < near),
+#: beyond the far plane, right of the right plane (x > tan_x z), left of the left one,
+#: above the top one, below the bottom one; and in front of the near plane (z >= near, not the first bit's negation
 #: where z is NaN).  A triangle whose corners share one of the first six bits lies wholly
 #: outside the view (``OUTSIDE_BITS``, its trivial reject); it lies wholly in front of the
 #: near plane where all three have ``IN_FRONT``.
@@ -84,13 +84,6 @@ auto wh_outcode = [&](const wp::vec3& c, const float near, const float far, cons
     )
     + ";\n};\n"
 )
-
-
-@wp.func_native(LAMBDA_HEADER_CPP + POINTS_CPP + "return wh_outcode(c, near, far, tan_x, tan_y);")
-def outcode(c: wp.vec3, near: float, far: float, tan_x: float, tan_y: float) -> int:
-    """Camera-space point ``c``'s bits against the view frustum of a camera's ``near``,
-    ``far``, ``tan_x`` and ``tan_y`` (``OUTSIDE_BITS``, ``IN_FRONT_BIT``; ``POINTS_CPP``)."""
-    ...
 
 
 @wp.func_native(LAMBDA_HEADER_CPP + POINTS_CPP + "return wh_to_camera(cam, p);")

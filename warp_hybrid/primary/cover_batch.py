@@ -6,7 +6,7 @@ bounding box, scalar, about 54 ns a triangle on the glass dragon's 100k small on
 pass took 5.4 ms where almost no triangle covers a pixel).  ``cover_batch`` does that
 setup for up to ``BATCH_TRIANGLES`` triangles at once, in loops across them that the
 compiler vectorises (gathers, float and 64-bit integer lanes; the trivial rejects from
-the corners' outcodes, ``clipping.outcode``, which the points pass computes once a
+the corners' outcodes, ``clipping.POINTS_CPP``, which the points pass computes once a
 point: on the glass dragon the pass's CPU time fell 14%), then rasterizes the ones
 left with a pixel centre in their box one at a time: ``coverage.raster_triangle``'s
 row and pixel loops, operation for operation (each float operation a Warp call, so
@@ -60,7 +60,7 @@ bool live[B], slow[B];
 for (int j = 0; j < n; ++j) {{
     const int t = first + j;
     const int i0 = indices[3 * t], i1 = indices[3 * t + 1], i2 = indices[3 * t + 2];
-    // (the corners' outcodes, ``clipping.outcode``: the trivial rejects where they share
+    // (the corners' outcodes, ``clipping.POINTS_CPP``: the trivial rejects where they share
     // a bit beyond a plane, wholly in front of the near plane where they share that bit)
     const int common = outcodes[i0] & outcodes[i1] & outcodes[i2];
     const bool reject = (common & {int(OUTSIDE_BITS)}) != 0;

@@ -342,6 +342,29 @@ const wp::vec3 p1(bx[j], by[j], bz[j]);
 const wp::vec3 p2(cx[j], cy[j], cz[j]);
 """
 
+
+def _corner_indices_cpp(triangle: str, attributes: bool) -> str:
+    """C++: lane j's triangle ``triangle`` (a C++ expression of ``j``; negative: none) to
+    int lane arrays, ahead of the loop that gathers by them: ``kc``, its first corner
+    (3 x triangle, 0 for none), and ``ia, ib, ic``, the first float of each corner's point
+    (3 x ``index``); with ``attributes`` also ``kt`` and ``kn``, the first float of its
+    corner uvs and corner normals (2 and 3 x ``kc``).  An index a gather loads from an int
+    array stays 32 bits: one the gather's own loop multiplied, the compiler widened to 64
+    (gathers of 8 lanes instead of 16)."""
+    attribute_arrays = ", kt[CHUNK], kn[CHUNK]" if attributes else ""
+    attribute_lanes = " kt[j] = 2 * k; kn[j] = 3 * k;" if attributes else ""
+    return f"""
+int kc[CHUNK], ia[CHUNK], ib[CHUNK], ic[CHUNK]{attribute_arrays};
+for (int j = 0; j < n; ++j) {{
+    const int tri = {triangle};
+    const int k = 3 * (tri >= 0 ? tri : 0);
+    kc[j] = k;{attribute_lanes}
+}}
+for (int j = 0; j < n; ++j) {{
+    ia[j] = 3 * index[kc[j]]; ib[j] = 3 * index[kc[j] + 1]; ic[j] = 3 * index[kc[j] + 2];
+}}"""
+
+
 #: A chunk whose runs of pixels on one triangle average under this many pixels gathers
 #: each pixel's corners (the resolve's step (2), the surface row loop's step (1)); the
 #: others load them once a run.
@@ -399,14 +422,13 @@ for (int xs = x0; xs < x1; xs += CHUNK) {{
     }}
     if (runs * {SHORT_RUN_PIXELS} > n) {{
         const float* P = (const float*)corners;
+        {_corner_indices_cpp("tri_v[j]", attributes=False)}
         #pragma clang loop vectorize(enable)
         for (int j = 0; j < n; ++j) {{
             const bool hit = tri_v[j] >= 0;
-            const int k = 3 * (hit ? tri_v[j] : 0);
-            const int ia = 3 * index[k], ib = 3 * index[k + 1], ic = 3 * index[k + 2];
-            ax[j] = hit ? P[ia] : 0.0f; ay[j] = hit ? P[ia + 1] : 0.0f; az[j] = hit ? P[ia + 2] : 0.0f;
-            bx[j] = hit ? P[ib] : 0.0f; by[j] = hit ? P[ib + 1] : 0.0f; bz[j] = hit ? P[ib + 2] : 0.0f;
-            cx[j] = hit ? P[ic] : 0.0f; cy[j] = hit ? P[ic + 1] : 0.0f; cz[j] = hit ? P[ic + 2] : 0.0f;
+            ax[j] = hit ? P[ia[j]] : 0.0f; ay[j] = hit ? P[ia[j] + 1] : 0.0f; az[j] = hit ? P[ia[j] + 2] : 0.0f;
+            bx[j] = hit ? P[ib[j]] : 0.0f; by[j] = hit ? P[ib[j] + 1] : 0.0f; bz[j] = hit ? P[ib[j] + 2] : 0.0f;
+            cx[j] = hit ? P[ic[j]] : 0.0f; cy[j] = hit ? P[ic[j] + 1] : 0.0f; cz[j] = hit ? P[ic[j] + 2] : 0.0f;
         }}
     }} else {{
     for (int run = 0; run < n;) {{
@@ -684,21 +706,21 @@ for (; xs < x1; xs += CHUNK) {{
         const float* P = (const float*)corners;
         const float* UV = (const float*)uvs;
         const float* NN = (const float*)corner_normals;
+        {_corner_indices_cpp("tris[xs + j]", attributes=True)}
         #pragma clang loop vectorize(enable)
         for (int j = 0; j < n; ++j) {{
             const int tri = tris[xs + j];
             const bool hit = tri >= 0;
-            const int k = 3 * (hit ? tri : 0);
-            const int ia = 3 * index[k], ib = 3 * index[k + 1], ic = 3 * index[k + 2];
-            ax[j] = hit ? P[ia] : 0.0f; ay[j] = hit ? P[ia + 1] : 0.0f; az[j] = hit ? P[ia + 2] : 0.0f;
-            bx[j] = hit ? P[ib] : 0.0f; by[j] = hit ? P[ib + 1] : 0.0f; bz[j] = hit ? P[ib + 2] : 0.0f;
-            cx[j] = hit ? P[ic] : 0.0f; cy[j] = hit ? P[ic + 1] : 0.0f; cz[j] = hit ? P[ic + 2] : 0.0f;
-            u0[j] = hit ? UV[2 * k] : 0.0f; v0[j] = hit ? UV[2 * k + 1] : 0.0f;
-            u1[j] = hit ? UV[2 * k + 2] : 0.0f; v1[j] = hit ? UV[2 * k + 3] : 0.0f;
-            u2[j] = hit ? UV[2 * k + 4] : 0.0f; v2[j] = hit ? UV[2 * k + 5] : 0.0f;
-            mx[j] = hit ? NN[3 * k] : 0.0f; my[j] = hit ? NN[3 * k + 1] : 0.0f; mz[j] = hit ? NN[3 * k + 2] : 0.0f;
-            nx1[j] = hit ? NN[3 * k + 3] : 0.0f; ny1[j] = hit ? NN[3 * k + 4] : 0.0f; nz1[j] = hit ? NN[3 * k + 5] : 0.0f;
-            ox[j] = hit ? NN[3 * k + 6] : 0.0f; oy[j] = hit ? NN[3 * k + 7] : 0.0f; oz[j] = hit ? NN[3 * k + 8] : 0.0f;
+            const int t2 = kt[j], n3 = kn[j];
+            ax[j] = hit ? P[ia[j]] : 0.0f; ay[j] = hit ? P[ia[j] + 1] : 0.0f; az[j] = hit ? P[ia[j] + 2] : 0.0f;
+            bx[j] = hit ? P[ib[j]] : 0.0f; by[j] = hit ? P[ib[j] + 1] : 0.0f; bz[j] = hit ? P[ib[j] + 2] : 0.0f;
+            cx[j] = hit ? P[ic[j]] : 0.0f; cy[j] = hit ? P[ic[j] + 1] : 0.0f; cz[j] = hit ? P[ic[j] + 2] : 0.0f;
+            u0[j] = hit ? UV[t2] : 0.0f; v0[j] = hit ? UV[t2 + 1] : 0.0f;
+            u1[j] = hit ? UV[t2 + 2] : 0.0f; v1[j] = hit ? UV[t2 + 3] : 0.0f;
+            u2[j] = hit ? UV[t2 + 4] : 0.0f; v2[j] = hit ? UV[t2 + 5] : 0.0f;
+            mx[j] = hit ? NN[n3] : 0.0f; my[j] = hit ? NN[n3 + 1] : 0.0f; mz[j] = hit ? NN[n3 + 2] : 0.0f;
+            nx1[j] = hit ? NN[n3 + 3] : 0.0f; ny1[j] = hit ? NN[n3 + 4] : 0.0f; nz1[j] = hit ? NN[n3 + 5] : 0.0f;
+            ox[j] = hit ? NN[n3 + 6] : 0.0f; oy[j] = hit ? NN[n3 + 7] : 0.0f; oz[j] = hit ? NN[n3 + 8] : 0.0f;
             const wp::vec2 w = bary[xs + j];
             bu[j] = hit ? w[0] : 0.0f; bv[j] = hit ? w[1] : 0.0f;
         }}

@@ -18,6 +18,9 @@ FLAG_BLENDED = wp.constant(32)  # alpha-blended coverage (``Material.is_blended`
 # Longest mip chain kept (level 15 of a 32768-texel image is 1 texel wide).
 MAX_MIP_LEVELS = 16
 MipOffsets = wp.types.vector(length=MAX_MIP_LEVELS, dtype=wp.int32)
+# The most floats the texel pool (``SceneGPU.texels``, four a texel, every image with its
+# mip chain) may hold: the kernels index its floats with 32-bit ints.
+MAX_TEXEL_FLOATS = 2**31 - 1
 
 
 @wp.struct

@@ -378,9 +378,13 @@ auto wh_cone_factor = [&](const auto& light, const bool has_cone, const float co
     const int v0 = wp::min((int)fv, size - 2);
     const float tr = wp::sub(fr, (float)r0);
     const float tv = wp::sub(fv, (float)v0);
-    // one channel (0: A, 1: B) of entry (r, v), and the bilinear blend of that channel
+    // one channel (0: A, 1: B) of entry (r, v), and the bilinear blend of that channel (the
+    // entry's float by an int index: a loop across pixels gathers it in 16 lanes, where a
+    // byte offset in size_t took two gathers of 8)
+    const float* lut_floats = (const float*)lut.data;
+    const int row_floats = lut.strides[0] / (int)sizeof(float), entry_floats = lut.strides[1] / (int)sizeof(float);
     auto at = [&](int r, int v, int c) WH_INLINE -> float {
-        return ((const float*)((const char*)lut.data + (size_t)r * lut.strides[0] + (size_t)v * lut.strides[1]))[c];
+        return lut_floats[r * row_floats + v * entry_floats + c];
     };
     auto blend = [&](int c) WH_INLINE -> float {
         const float lower = wp::add(wp::mul(at(r0, v0, c), wp::sub(1.0f, tv)), wp::mul(at(r0, v0 + 1, c), tv));

@@ -5,13 +5,16 @@ opacity_at, checked against numpy references."""
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 import warp as wp
 
 from warp_hybrid.core.scene_gpu import SceneGPU
+from warp_hybrid.errors import SceneError
 from warp_hybrid.scene.authoring.builders import MeshInput, make_scene
-from warp_hybrid.scene.device import DeviceScene
+from warp_hybrid.scene.device import DeviceScene, upload
 from warp_hybrid.scene.device.mipmaps import mip_chain, mip_level_count, mip_level_size
 from warp_hybrid.scene.device.surface import (
     SurfaceHit,
@@ -394,6 +397,26 @@ def test_device_scene_packs_levels_of_material_textures(device: str) -> None:
     dome_at = int(tex["offset"][1])
     assert offset <= dome_at or dome_at + 32 <= int(tex["offset"][0])
     np.testing.assert_array_equal(texels[dome_at : dome_at + 32], dome.reshape(-1, 4))
+
+
+def test_texel_pool_past_32_bit_indices_is_refused(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A scene whose textures (with their mip chains) hold more floats than the kernels'
+    int texel indices reach is refused with a SceneError naming the file, before any
+    upload; one at the limit packs."""
+    img = np.zeros((4, 4, 4), np.float32)
+    scene = make_scene(
+        [_triangle_mesh()],
+        [Material("m", diffuse_texture=0)],
+        images=[TextureImage("<img>", img)],
+        textures=[TextureBinding(0)],
+    )
+    texels = 16 + 4 + 1  # the 4x4 image's chain: 4x4, 2x2, 1x1
+    monkeypatch.setattr(upload, "MAX_TEXEL_FLOATS", 4 * texels)
+    packed, _ = upload.pack_textures(scene)
+    assert packed.shape == (texels, 4)
+    monkeypatch.setattr(upload, "MAX_TEXEL_FLOATS", 4 * texels - 1)
+    with pytest.raises(SceneError, match=rf"^{re.escape(scene.path)}: .*{texels} texels.*32-bit texel indices"):
+        upload.pack_textures(scene)
 
 
 def _sample_at_lods(ds: DeviceScene, device: str, uv: np.ndarray, lods: np.ndarray) -> np.ndarray:

@@ -128,10 +128,12 @@ auto wh_bilinear_repeat_channel = [&](const wp::vec4* texels, int offset, int wi
     r0 = r0 < 0 ? r0 + height : r0;
     c1 = c1 >= width ? c1 - width : c1;
     r1 = r1 >= height ? r1 - height : r1;
-    const float* row0 = (const float*)(texels + offset + r0 * width);
-    const float* row1 = (const float*)(texels + offset + r1 * width);
-    const float top = wh_lerp(row0[4 * c0 + k], row0[4 * c1 + k], wx1);
-    const float bottom = wh_lerp(row1[4 * c0 + k], row1[4 * c1 + k], wx1);
+    // (each texel's float by an int index into the texel pool, which a loop across pixels
+    // gathers in 16 lanes; a pointer per lane took two gathers of 8: ``MAX_TEXEL_FLOATS``)
+    const float* flat = (const float*)texels;
+    const int row0 = 4 * (offset + r0 * width) + k, row1 = 4 * (offset + r1 * width) + k;
+    const float top = wh_lerp(flat[row0 + 4 * c0], flat[row0 + 4 * c1], wx1);
+    const float bottom = wh_lerp(flat[row1 + 4 * c0], flat[row1 + 4 * c1], wx1);
     return finite ? wh_lerp(top, bottom, wy1) : 0.0f;
 };
 // All four channels.

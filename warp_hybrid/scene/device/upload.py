@@ -33,6 +33,7 @@ from ...core.scene_gpu import (
     FLAG_TRANSMISSIVE,
     FLAG_VERTEX_COLOR,
     MAX_MIP_LEVELS,
+    MAX_TEXEL_FLOATS,
     AmbientGPU,
     EnvironmentGPU,
     LightGPU,
@@ -177,7 +178,8 @@ def _texture_source(scene: Scene) -> tuple:
 
 def pack_textures(scene: Scene) -> tuple[np.ndarray, list[TextureGPU]]:
     """Flat texels of every image (with its mip chain when a material samples it, so
-    minified lookups can pick a level) and one ``TextureGPU`` per binding."""
+    minified lookups can pick a level) and one ``TextureGPU`` per binding; a
+    ``SceneError`` where the texels would pass ``MAX_TEXEL_FLOATS``."""
     mipped = _material_images(scene)
     chains = [
         mip_chain(img.pixels)[:MAX_MIP_LEVELS] if k in mipped else [img.pixels] for k, img in enumerate(scene.images)
@@ -190,6 +192,12 @@ def pack_textures(scene: Scene) -> tuple[np.ndarray, list[TextureGPU]]:
             starts.append(total)
             total += level.shape[0] * level.shape[1]
         level_offsets.append(starts + [starts[-1]] * (MAX_MIP_LEVELS - len(starts)))
+    if 4 * total > MAX_TEXEL_FLOATS:
+        raise SceneError(
+            scene.path,
+            f"its {len(scene.images)} texture images hold {total} texels with their mip chains; "
+            f"at most {MAX_TEXEL_FLOATS // 4} fit the renderer's 32-bit texel indices",
+        )
     texels = np.zeros((max(total, 1), 4), dtype=np.float32)
     for chain, starts in zip(chains, level_offsets):
         for level, start in zip(chain, starts):

@@ -93,6 +93,8 @@ def test_injected_clock_times_every_stage(device: str) -> None:
     # one pass, timed so, and split between its two stages
     traced = stages.pop("trace_shadow") + stages.pop("trace_secondary")
     assert traced == pytest.approx(1.0)
+    # the raster frame's surface pass resolves the hit record itself: "resolve" stays, 0 ms
+    assert stages.pop("resolve") == 0.0
     assert all(v == pytest.approx(1.0) for v in stages.values())
     assert r.setup_ms == {"upload": pytest.approx(1.0), "bvh_build": pytest.approx(1.0)}
 

@@ -14,7 +14,7 @@ from warp_hybrid.core.gbuffer import CHANNELS, GBuffer, GBufferRows
 from warp_hybrid.core.native_rows import SURFACE_CHUNK_CPU
 from warp_hybrid.core.scene_gpu import SceneGPU
 from warp_hybrid.parallel import Launcher
-from warp_hybrid.primary import Rasterizer
+from warp_hybrid.primary import PrimaryVisibility, Rasterizer
 from warp_hybrid.primary.kernels import SHORT_RUN_PIXELS, _write_surface
 from warp_hybrid.scene.authoring.builders import look_at_camera, make_scene, quad, uv_sphere
 from warp_hybrid.scene.device import DeviceScene
@@ -131,3 +131,39 @@ def test_row_loop_writes_what_surface_at_grad_gives(device, threads):
     floor = loop.channel_numpy("albedo")[materials == 0]
     assert len(floor) > 1000
     assert floor.std() < 0.25 * float(scene.images[0].pixels[..., :3].std())
+
+
+class _ResolvePass(Rasterizer):
+    """The raster path with the resolve as a pass of its own (``find_hits``), the surface
+    pass then reading the hit record from the G-buffer."""
+
+    def hits_for_surface(self, scene, camera, gbuffer, timer, rows=None):
+        return PrimaryVisibility.hits_for_surface(self, scene, camera, gbuffer, timer, rows)
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_surface_pass_resolves_as_the_resolve_pass(device, threads):
+    """A raster frame's surface pass resolves the hit record from the key slices itself:
+    every channel, the hit record's included, the same bits as the resolve pass then the
+    surface pass, over a moving view (blocks that hold the background record, kept or
+    written again), every row or some."""
+    scene, camera = _scene()
+    ds = DeviceScene(scene, device)
+    cam = make_camera_gpu(camera, W, H)
+    down = make_camera_gpu(look_at_camera((0.0, 4.0, 0.0), (0.0, 0.0, -8.0), hfov_deg=70.0), W, H)
+    fused, separate = GBuffer(W, H, device), GBuffer(W, H, device)
+    with Launcher(device, threads=threads) as launcher:
+        for view, rows in ((cam, None), (down, None), (cam, None), (cam, (13, 41)), (down, (0, 7)), (cam, None)):
+            timer = StageTimer()
+            Rasterizer(launcher).render(ds, view, fused, timer, rows)
+            assert timer.stages_ms["resolve"] == 0.0 and timer.stages_ms["surface"] > 0.0
+            _ResolvePass(launcher).render(ds, view, separate, StageTimer(), rows)
+            assert 0.05 < fused.hit_mask().mean()
+            for channel in CHANNELS:
+                got, want = fused.channel_numpy(channel.name), separate.channel_numpy(channel.name)
+                if device == "cpu":
+                    assert got.tobytes() == want.tobytes(), (channel.name, rows)
+                else:
+                    np.testing.assert_allclose(got, want, rtol=1e-6, atol=1e-6, err_msg=channel.name)
+            if device == "cpu":
+                np.testing.assert_array_equal(fused.background_blocks.numpy(), separate.background_blocks.numpy())

@@ -3,7 +3,10 @@
 
 ``PrimaryVisibility.render`` checks the sizes, lets the subclass write each pixel's hit
 record (``find_hits``: rasterized in ``Rasterizer``, ray cast in ``RayCaster``; the
-background's record where no surface is hit), then runs the surface pass both share
+background's record where no surface is hit), or leave it for the surface pass to resolve
+from the coverage pass's keys as it reads them (``hits_for_surface``: ``Rasterizer``, so
+the hit record is not written by one pass and read back by the next), then runs the
+surface pass both share
 (stage "surface": the material at each hit record, textures filtered over the pixel's
 footprint, into every other channel; the background's values elsewhere).  Every pixel
 is written, so there is no clear first (stage "clear" no longer runs; its stats column
@@ -14,6 +17,8 @@ ran.
 from __future__ import annotations
 
 from abc import abstractmethod
+
+import warp as wp
 
 from ..core.camera import CameraGPU
 from ..core.gbuffer import GBuffer
@@ -32,6 +37,8 @@ class PrimaryVisibility(RenderPass):
         """Use ``launcher`` for the device and the host threads."""
         self.launcher = launcher
         launcher.ensure_loaded(kernels.surface_kernel)  # the primary kernels' one module
+        # the surface kernel's key slices where the hit record is in the G-buffer: none
+        self._no_keys = wp.empty((0, 0, 0), dtype=wp.uint64, device=launcher.device)
 
     def execute(self, frame: FrameContext) -> None:
         """Fill ``frame``'s G-buffer (its ``raster_rows``) from the scene set with ``set_scene``."""
@@ -47,7 +54,7 @@ class PrimaryVisibility(RenderPass):
             raise ValueError(
                 f"camera is for {camera.width}x{camera.height} but the G-buffer is {gbuffer.width}x{gbuffer.height}"
             )
-        self.find_hits(scene, camera, gbuffer, timer, rows)
+        keys = self.hits_for_surface(scene, camera, gbuffer, timer, rows)
         with timer.stage("surface"):
             every_row = rows is None or (rows[0] <= 0 and rows[1] >= gbuffer.height)
             write_emission = gbuffer.surface_writes_emission(scene.features.emission, every_row)
@@ -55,9 +62,26 @@ class PrimaryVisibility(RenderPass):
                 kernels.surface_kernel,
                 gbuffer.height,
                 gbuffer.width,
-                [scene.gpu, camera, gbuffer.rows(), gbuffer.background_blocks, int(write_emission)],
+                [
+                    scene.gpu,
+                    camera,
+                    self._no_keys if keys is None else keys,
+                    gbuffer.rows(),
+                    gbuffer.background_blocks,
+                    int(write_emission),
+                ],
                 rows=rows,
             )
+
+    def hits_for_surface(
+        self, scene: DeviceScene, camera: CameraGPU, gbuffer: GBuffer, timer: StageTimer, rows: RowSpan | None = None
+    ) -> wp.array | None:
+        """Where the surface pass that ``render`` runs next takes each pixel's hit record
+        from: None where this wrote it into ``gbuffer`` (``find_hits``, here), or key
+        slices whose smallest key names each pixel's triangle, which the surface pass
+        resolves into the hit record as it reads them (``Rasterizer``)."""
+        self.find_hits(scene, camera, gbuffer, timer, rows)
+        return None
 
     @abstractmethod
     def find_hits(

@@ -17,7 +17,8 @@
 * ``resolve_kernel`` (per pixel): the smallest key over the key slices names the
   nearest triangle; ``hit_record.exact_hit`` gives the pixel's hit record, in a native
   row loop vectorised across pixels (the same C++ statements as ``exact_hit`` and
-  ``camera_ray``, so the same bits).
+  ``camera_ray``, so the same bits): the shadow maps' faces, which need no surface (a
+  frame's surface pass resolves its own, below).
 * ``raycast_kernel`` (per pixel): the reference path, the closest hit through each
   pixel centre from the near plane to the far plane, stepping past cut-away hits, the
   same ``exact_hit`` on the face it finds.  The BVH query is the scene's 4-wide copy
@@ -27,7 +28,10 @@
   the hit record, textures filtered over the pixel's footprint, into every other
   G-buffer channel, in a native row loop (the footprints and the surface's frame
   vectorised across pixels; the lambdas of ``surface_at_grad``, so the same bits); a
-  material with a normal map goes pixel by pixel through ``surface_at_grad``.
+  material with a normal map goes pixel by pixel through ``surface_at_grad``.  Given the
+  coverage pass's key slices it resolves the hit record itself, chunk by chunk, with the
+  resolve's statements (``_resolved_surface_span``): the raster frame's G-buffer in one
+  pass over the pixels.
 * ``listed_primary_kernel`` (per entry of a pixel list, grouped): the ray-cast hit
   record and the surface pass of only the listed pixels, for sub-samples of the focus
   window (``trace.fovea``); a listed pixel that misses gets the background's hit record.
@@ -621,6 +625,55 @@ _WRITE_LANES_CPP = (
 )
 
 
+# The pieces ``_surface_span_cpp`` adds to resolve the raster frame's hit record itself
+# (given ``keys``, the coverage pass's key slices, and the background's hit record
+# ``miss_triangle``, ``miss_depth``, ``miss_barycentric``): the row's keys and the lanes of
+# the record; (0) each pixel's triangle from the smallest key over the slices, stored into
+# the row's triangle ids but where a whole block keeps the background record it holds, and
+# ``hits`` counted; the background's depth and barycentrics written with a background
+# chunk's other channels; in (2)'s loop ``EXACT_HIT_CPP`` on the lane's corners and camera
+# ray; the record's depth and barycentrics written with the other channels.
+_RESOLVED_ROW_CPP = f"""const wp::uint64 empty = {int(EMPTY_KEY.value)}ull;
+const wp::vec3 fwd = cam.forward;
+const wp::uint64* first_keys = (const wp::uint64*)((const char*)keys.data + (size_t)y * keys.strides[1]);
+int* const tri_ids = gb.triangle_id.data + row;
+float hit_t[CHUNK], hit_u[CHUNK], hit_v[CHUNK];
+"""
+_RESOLVED_CHUNK_CPP = """{
+        wp::uint64 key[CHUNK];
+        for (int j = 0; j < n; ++j) key[j] = first_keys[xs + j];
+        for (int s = 1; s < (int)keys.shape[0]; ++s) {
+            const wp::uint64* slice = (const wp::uint64*)((const char*)first_keys + (size_t)s * keys.strides[0]);
+            for (int j = 0; j < n; ++j) key[j] = wp::min(key[j], slice[xs + j]);
+        }
+        int tri_v[CHUNK];
+        for (int j = 0; j < n; ++j) {
+            tri_v[j] = key[j] != empty ? (int)(key[j] & 0xFFFFFFFFull) : miss_triangle;
+            hits += key[j] != empty ? 1 : 0;
+        }
+        if (!(hits == 0 && whole && blocks[xs / CHUNK] != 0))
+            for (int j = 0; j < n; ++j) tri_ids[xs + j] = tri_v[j];
+    }"""
+_HIT_RECORD_WRITE_CPP = """
+        wh_write_floats(gb.depth.data + row + xs, 1, n, hit_t, nullptr, nullptr, nullptr);
+        wh_write_floats((float*)(gb.barycentric.data + row + xs), 2, n, hit_u, hit_v, nullptr, nullptr);"""
+_MISS_RECORD_CPP = (
+    """
+        for (int j = 0; j < n; ++j) {
+            hit_t[j] = miss_depth; hit_u[j] = miss_barycentric; hit_v[j] = miss_barycentric;
+        }"""
+    + _HIT_RECORD_WRITE_CPP
+)
+_RESOLVED_HIT_CPP = f"""
+        {EXACT_HIT_CPP}
+        const bool hit_lane = tris[xs + j] >= 0;
+        hit_t[j] = hit_lane ? eh_t : miss_depth;
+        hit_u[j] = hit_lane ? rt_bu : miss_barycentric;
+        hit_v[j] = hit_lane ? rt_bv : miss_barycentric;
+        bu[j] = hit_lane ? rt_bu : 0.0f;
+        bv[j] = hit_lane ? rt_bv : 0.0f;"""
+
+
 # The surface pass's row loop: a chunk of pixels at a time, (1) a gather of each pixel's
 # triangle corners, corner uvs and normals and its barycentrics (none for the background):
 # once for a run of pixels on one triangle, or lane by lane across the chunk where its runs
@@ -634,11 +687,22 @@ _WRITE_LANES_CPP = (
 # whose material has a normal map is left for the scalar path (``surface_at_grad``, which
 # writes all of it after); the loop returns how many it left.  The same lambdas as
 # ``surface_at_grad``, so the same bits.
-_SURFACE_SPAN_CPP = (
-    chunk_cpp(SURFACE_CHUNK_CPU)
-    + SURFACE_CPP
-    + STREAM_CPP
-    + f"""
+
+
+def _surface_span_cpp(resolve: bool) -> str:
+    """The C++ of the surface row loop (above): without ``resolve`` over the hit record in
+    the G-buffer; with it the raster frame's resolve too (``_resolved_surface_span``): (0)
+    at each chunk's start the smallest key over the slices (the resolve's step (1)) names
+    each pixel's triangle, stored into the row's triangle ids, whose reads below then hit
+    the cache; the barycentrics and depth come from ``EXACT_HIT_CPP`` in (2)'s loop over
+    the corners and the camera ray (1) and (2) have there already, and the hit record's
+    depth and barycentrics are written with the other channels.  The resolve's
+    statements on the same corners and rays, so the same bits."""
+    return (
+        chunk_cpp(SURFACE_CHUNK_CPU)
+        + SURFACE_CPP
+        + STREAM_CPP
+        + f"""
 const wp::vec3* corners = scene.points.data;
 const int* index = scene.indices.data;
 const wp::vec2* uvs = scene.corner_uvs.data;
@@ -646,7 +710,7 @@ const wp::vec3* corner_normals = scene.corner_normals.data;
 const wp::vec3 o = cam.origin;
 const float py = wp::add((float)y, cam.sample[1]);
 const size_t row = (size_t)y * (size_t)cam.width;
-const int* tris = gb.triangle_id.data + row;
+{_RESOLVED_ROW_CPP if resolve else ""}const int* tris = gb.triangle_id.data + row;
 const wp::vec2* bary = gb.barycentric.data + row;
 // which of the row's blocks of CHUNK pixels hold the background record (``GBuffer.background_blocks``)
 int* const blocks = (int*)((char*)background_blocks.data + (size_t)y * background_blocks.strides[0]);
@@ -683,13 +747,13 @@ for (; xs < x1; xs += CHUNK) {{
     // holds the background record still is left as it is)
     const bool whole = CHUNK > 1 && xs % CHUNK == 0 && (n == CHUNK || xs + n == cam.width);
     int hits = 0;
-    for (int j = 0; j < n; ++j) hits += tris[xs + j] >= 0 ? 1 : 0;
+    {_RESOLVED_CHUNK_CPP if resolve else "for (int j = 0; j < n; ++j) hits += tris[xs + j] >= 0 ? 1 : 0;"}
     if (hits == 0) {{
         if (whole && blocks[xs / CHUNK] != 0) continue;
         for (int j = 0; j < n; ++j) {{
             {_background_lanes_cpp("false")}
         }}
-        {_WRITE_LANES_CPP}
+        {_WRITE_LANES_CPP}{_MISS_RECORD_CPP if resolve else ""}
         if (whole) blocks[xs / CHUNK] = 1;
         continue;
     }}
@@ -721,8 +785,7 @@ for (; xs < x1; xs += CHUNK) {{
             mx[j] = hit ? NN[n3] : 0.0f; my[j] = hit ? NN[n3 + 1] : 0.0f; mz[j] = hit ? NN[n3 + 2] : 0.0f;
             nx1[j] = hit ? NN[n3 + 3] : 0.0f; ny1[j] = hit ? NN[n3 + 4] : 0.0f; nz1[j] = hit ? NN[n3 + 5] : 0.0f;
             ox[j] = hit ? NN[n3 + 6] : 0.0f; oy[j] = hit ? NN[n3 + 7] : 0.0f; oz[j] = hit ? NN[n3 + 8] : 0.0f;
-            const wp::vec2 w = bary[xs + j];
-            bu[j] = hit ? w[0] : 0.0f; bv[j] = hit ? w[1] : 0.0f;
+            {"" if resolve else "const wp::vec2 w = bary[xs + j]; bu[j] = hit ? w[0] : 0.0f; bv[j] = hit ? w[1] : 0.0f;"}
         }}
     }} else {{
     for (int run = 0; run < n;) {{
@@ -744,19 +807,18 @@ for (; xs < x1; xs += CHUNK) {{
             nc = corner_normals[k + 2];
         }}
         for (int j = run; j < end; ++j) {{
-            const wp::vec2 w = tri >= 0 ? bary[xs + j] : wp::vec2(0.0f);
+            {"" if resolve else "const wp::vec2 w = tri >= 0 ? bary[xs + j] : wp::vec2(0.0f); bu[j] = w[0]; bv[j] = w[1];"}
             {_STORE_CORNERS_CPP}
             u0[j] = ta[0]; v0[j] = ta[1]; u1[j] = tb[0]; v1[j] = tb[1]; u2[j] = tc[0]; v2[j] = tc[1];
             mx[j] = na[0]; my[j] = na[1]; mz[j] = na[2];
             nx1[j] = nb[0]; ny1[j] = nb[1]; nz1[j] = nb[2];
             ox[j] = nc[0]; oy[j] = nc[1]; oz[j] = nc[2];
-            bu[j] = w[0]; bv[j] = w[1];
         }}
         run = end;
     }}
     }}
     for (int j = 0; j < n; ++j) {{
-        {_LANE_RAY_CPP}
+        {_LANE_RAY_CPP}{_RESOLVED_HIT_CPP if resolve else ""}
         const wp::vec2 uv0(u0[j], v0[j]);
         const wp::vec2 uv1(u1[j], v1[j]);
         const wp::vec2 uv2(u2[j], v2[j]);
@@ -875,15 +937,15 @@ for (; xs < x1; xs += CHUNK) {{
         sz[j] = flip ? -sz[j] : sz[j];
         {_background_lanes_cpp("hit")}
     }}
-    {_WRITE_LANES_CPP}
+    {_WRITE_LANES_CPP}{_HIT_RECORD_WRITE_CPP if resolve else ""}
 }}
 WH_STREAM_FENCE();
 return left;
 """
-)
+    )
 
 
-@wp.func_native(_SURFACE_SPAN_CPP)
+@wp.func_native(_surface_span_cpp(resolve=False))
 def _surface_span(
     scene: SceneGPU,
     cam: CameraGPU,
@@ -897,7 +959,7 @@ def _surface_span(
     x1: int,
 ) -> int:
     """Every channel but the hit record of pixels ``x0 <= x < x1`` of row ``y``
-    (``_SURFACE_SPAN_CPP``): pixel by pixel the same bits as ``_write_surface``, the
+    (``_surface_span_cpp``): pixel by pixel the same bits as ``_write_surface``, the
     background's values (``gbuffer.BACKGROUND``) where no surface is hit (kept where a
     block of ``background_blocks`` says they are there already, and that flag kept);
     the emission channel only where ``write_emission`` is non-zero; ``ddx``, ``ddy``:
@@ -906,10 +968,35 @@ def _surface_span(
     ...
 
 
+@wp.func_native(_surface_span_cpp(resolve=True))
+def _resolved_surface_span(
+    scene: SceneGPU,
+    cam: CameraGPU,
+    keys: wp.array3d(dtype=wp.uint64),
+    gb: GBufferRows,
+    background_blocks: wp.array2d(dtype=wp.int32),
+    write_emission: int,
+    miss_triangle: int,
+    miss_depth: float,
+    miss_barycentric: float,
+    ddx: wp.vec3,
+    ddy: wp.vec3,
+    y: int,
+    x0: int,
+    x1: int,
+) -> int:
+    """``_surface_span`` over the hit records it resolves from the key slices ``keys``
+    first (``_surface_span_cpp``), every channel the hit record's too: pixel by pixel the
+    same bits as ``_resolve_span`` then ``_surface_span`` (the background's hit record
+    ``miss_triangle``, ``miss_depth``, ``miss_barycentric`` where every slice is empty)."""
+    ...
+
+
 @wp.kernel
 def surface_kernel(
     scene: SceneGPU,
     cam: CameraGPU,
+    keys: wp.array3d(dtype=wp.uint64),
     gb: GBufferRows,
     background_blocks: wp.array2d(dtype=wp.int32),
     write_emission: int,
@@ -918,18 +1005,41 @@ def surface_kernel(
     cols: int,
 ):
     """Per row (a launch item's columns): the surface named by each pixel's hit record
-    (whichever primary path wrote it) into the remaining G-buffer channels (the
-    background's values where the pixel sees no surface; ``background_blocks``: the
-    G-buffer's ``background_blocks``; the emission channel only where ``write_emission``
-    is non-zero, ``GBuffer.surface_writes_emission``), in a native row loop
-    (``_surface_span``); the pixels it leaves (normal-mapped materials) one at a time."""
+    into the remaining G-buffer channels (the background's values where the pixel sees no
+    surface; ``background_blocks``: the G-buffer's ``background_blocks``; the emission
+    channel only where ``write_emission`` is non-zero, ``GBuffer.surface_writes_emission``),
+    in a native row loop; the pixels it leaves (normal-mapped materials) one at a time.
+    The hit record is the one in the G-buffer (whichever primary path wrote it) where
+    ``keys`` holds no slice (``_surface_span``); else the raster frame's, resolved from
+    the coverage pass's key slices ``keys`` as the row loop reads them and written with
+    the other channels (``_resolved_surface_span``)."""
     r, c = wp.tid()
     y = row0 + r * row_step
     first = c * cols
     stop = wp.min(first + cols, cam.width)
     if first < stop:
         steps = sample_steps(cam)
-        if _surface_span(scene, cam, gb, background_blocks, write_emission, steps[0], steps[1], y, first, stop) > 0:
+        left = int(0)
+        if keys.shape[0] > 0:
+            left = _resolved_surface_span(
+                scene,
+                cam,
+                keys,
+                gb,
+                background_blocks,
+                write_emission,
+                wp.static(int(BACKGROUND["triangle_id"])),
+                wp.static(float(BACKGROUND["depth"])),
+                wp.static(float(BACKGROUND["barycentric"])),
+                steps[0],
+                steps[1],
+                y,
+                first,
+                stop,
+            )
+        else:
+            left = _surface_span(scene, cam, gb, background_blocks, write_emission, steps[0], steps[1], y, first, stop)
+        if left > 0:
             for x in range(first, stop):
                 i = y * cam.width + x
                 tri = gb.triangle_id[i]

@@ -1,6 +1,8 @@
 """Raster primary visibility: a key buffer of depth|triangle keys, then resolve.
 
-``Rasterizer.find_hits`` runs two timed stages (the base class adds "surface"):
+``Rasterizer.find_hits`` runs two timed stages; a frame's ``render`` runs the first and
+leaves the second to the surface pass (``hits_for_surface``: ``kernels.surface_kernel``
+resolves each chunk of pixels as it reads it, "resolve" 0 ms, its time in "surface"):
 
 * ``raster``: the points are transformed once (``kernels.camera_points_kernel``),
   then every cluster of ``kernels.CLUSTER_TRIANGLES`` consecutive triangles that is not
@@ -20,8 +22,8 @@
   resolve reads one key a pixel).  Every pass here, the slices' clear included
   (``kernels.clear_keys_kernel``), is a band pass of the launcher (``parallel``).
 * ``resolve``: per pixel, the winning triangle is intersected with the pixel's camera
-  ray for exact depth and barycentrics: the hit record (``kernels.resolve_kernel``),
-  the same one the ray-cast path writes.
+  ray for exact depth and barycentrics: the hit record (``kernels.resolve_kernel``; in
+  a frame's surface pass the same statements), the same one the ray-cast path writes.
 """
 
 from __future__ import annotations
@@ -51,7 +53,8 @@ KEPT_TARGETS = 32
 
 
 class Rasterizer(PrimaryVisibility):
-    """Finds each pixel's nearest surface by rasterization (stages "raster" and "resolve")."""
+    """Finds each pixel's nearest surface by rasterization (stages "raster" and "resolve";
+    in ``render`` the surface pass resolves)."""
 
     def __init__(self, launcher: Launcher) -> None:
         """Use ``launcher`` for the device and the host threads."""
@@ -195,6 +198,20 @@ class Rasterizer(PrimaryVisibility):
                 [scene.gpu, camera, keys[:written], gbuffer.rows()],
                 rows=rows,
             )
+
+    def hits_for_surface(
+        self, scene: DeviceScene, camera: CameraGPU, gbuffer: GBuffer, timer: StageTimer, rows: RowSpan | None = None
+    ) -> wp.array | None:
+        """The raster stage alone: the key slices it wrote, which the surface pass resolves
+        as it reads them (``kernels.surface_kernel``: the resolve's work inside the surface
+        stage, whose pixels it would re-read; the "resolve" stage stays, 0 ms)."""
+        if rows is not None and rows[0] >= rows[1]:
+            return None
+        keys = self._slices(gbuffer.height, gbuffer.width)
+        with timer.stage("raster"):
+            written = self._rasterize(scene, camera, keys, MODE_DEPTH, _EMPTY_KEY, rows)
+        timer.add("resolve", 0.0)
+        return keys[:written]
 
     def overdraw(self, scene: DeviceScene, camera: CameraGPU) -> np.ndarray:
         """Diagnostic: (height, width) int64 count of rasterized fragments per pixel

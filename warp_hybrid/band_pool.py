@@ -435,6 +435,32 @@ class PackedKernel:
         return ctypes.addressof(self.args)
 
 
+class DirectLaunch:
+    """A one-item CPU launch of a kernel, called straight through its compiled entry point
+    with its arguments packed once (``PackedKernel``), its trailing integers set per call:
+    a recorded ``wp.Launch`` packs a new argument structure on every ``launch`` (about
+    10 us, paid by every pass the band threads run).  The call releases the GIL, as
+    Warp's own does."""
+
+    _FORWARD = ctypes.CFUNCTYPE(None, ctypes.c_void_p, ctypes.c_void_p)
+
+    def __init__(self, kernel: wp.Kernel, device: wp.context.Device, inputs: Sequence[Any], tail: int = 0) -> None:
+        """Pack ``inputs`` and ``tail`` trailing int32 inputs of ``kernel`` (loaded on CPU
+        ``device``) for calls of one launch item."""
+        block = PackedKernel.pack(kernel, device, inputs, tail)
+        self._block = block
+        self._forward = self._FORWARD(block.forward)
+        self._bounds = ctypes.byref(block._owner.params[0])  # (the recorded launch's, one item)
+        self._args = ctypes.byref(block.args)
+        self._tail = [ctypes.c_int32.from_buffer(block.args, offset) for offset in block.offsets]
+
+    def __call__(self, *tail: int) -> None:
+        """Run the launch item with the trailing integers ``tail``."""
+        for slot, value in zip(self._tail, tail, strict=True):
+            slot.value = value
+        self._forward(self._bounds, self._args)
+
+
 def _value_fingerprint(value: Any) -> Any:
     """What a packed argument block takes from ``value``: an array's data pointer, shape,
     strides and type; a Warp struct's bytes (its ctypes record, which holds its arrays'
@@ -485,9 +511,9 @@ class BandPool:
         self._host[SPIN_NS] = spin_ns
         self._host[CLOCK_WALL] = time.CLOCK_MONOTONIC
         self._host[CLOCK_CPU] = time.CLOCK_THREAD_CPUTIME_ID
-        self._run = wp.launch(_run_kernel, dim=1, inputs=[self._board, 0], device=device, record_cmd=True)
+        self._run = DirectLaunch(_run_kernel, device, [self._board], tail=1)
         run_quit = wp.launch(_quit_kernel, dim=1, inputs=[self._board], device=device, record_cmd=True)
-        self._wake = wp.launch(_wake_kernel, dim=1, inputs=[self._board], device=device, record_cmd=True)
+        self._wake = DirectLaunch(_wake_kernel, device, [self._board])
         helpers = [
             threading.Thread(
                 target=wp.launch,
@@ -525,7 +551,7 @@ class BandPool:
         delaying the first pass.  Nothing where none sleeps."""
         if self._host[SLEEPERS] > 0:
             self._host[NAP] = 0
-            self._wake.launch()
+            self._wake()
 
     def nap(self) -> None:
         """Let the helper threads sleep now instead of spinning until the next pass (the
@@ -574,8 +600,7 @@ class BandPool:
         host[BANDS] = bands.ctypes.data
         host[TIMED] = int(timed)
         host[DEADLINE_NS] = NO_DEADLINE if deadline_ns is None else min(int(deadline_ns), NO_DEADLINE)
-        self._run.set_param_at_index_from_ctype(1, bands.shape[0])
-        self._run.launch()
+        self._run(bands.shape[0])
         return int(host[RAN])
 
 

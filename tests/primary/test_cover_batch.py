@@ -56,8 +56,8 @@ def _scene():
     """Triangles at every kind of place in front of a camera at the origin looking down
     -Z (near 0.05): small ones, wide ones, zero-area ones, ones beside or behind the
     view, ones crossing the near plane, ones far outside the guard band, and a share of
-    them with a cut-out material; edges through pixel centres; triangles across the
-    far plane, small ones too."""
+    them with a cut-out material; edges through pixel centres; small ones at the image's
+    right and bottom borders; triangles across the far plane, small ones too."""
     rng = np.random.default_rng(3)
     tris = []
     for _ in range(260):  # small, in view, at random depths
@@ -84,6 +84,11 @@ def _scene():
     for _ in range(15):  # straddling the far plane (1e4)
         c = np.array([rng.uniform(-4e3, 4e3), rng.uniform(-2e3, 2e3), -1e4])
         tris.append(c + rng.normal(0.0, 2e3, (3, 3)))
+    for _ in range(40):  # small, at the right edge and the bottom rows (a narrow box's tile meets the border)
+        i = W - rng.uniform(0.2, 4.0) if rng.random() < 0.5 else rng.uniform(2.0, W - 2.0)
+        j = H - rng.uniform(0.2, 4.0) if i < W - 4.0 else rng.uniform(2.0, H - 2.0)
+        c = np.array([(i - 48.0) / 48.0, (32.0 - j) / 48.0, -1.0])
+        tris.append(c + rng.normal(0.0, 0.03, (3, 3)) * [1.0, 1.0, 0.0])
     for _ in range(60):  # small at the far plane (a pixel is about 200 there): before, behind and across it
         c = np.array([rng.uniform(-6e3, 6e3), rng.uniform(-4e3, 4e3), -rng.uniform(0.995e4, 1.005e4)])
         tris.append(c + rng.normal(0.0, 150.0, (3, 3)))

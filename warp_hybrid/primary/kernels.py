@@ -63,7 +63,14 @@ from ..core.native_rows import (
 )
 from ..core.pixel_list import listed_pixel
 from ..core.scene_gpu import FLAG_VERTEX_COLOR, SceneGPU
-from ..scene.device.surface import SURFACE_CPP, UV_FOOTPRINT_CPP, is_cut_away, samples_textures, surface_at_grad
+from ..scene.device.surface import (
+    SAMPLES_TEXTURES_CPP,
+    SURFACE_CPP,
+    UV_FOOTPRINT_CPP,
+    is_cut_away,
+    samples_textures,
+    surface_at_grad,
+)
 from ..scene.device.wide_bvh import WideBVHGPU, WideHit, wide_closest
 from ..scene.model import Wrap
 from .clipping import (
@@ -761,6 +768,20 @@ for (; xs < x1; xs += CHUNK) {{
         blocks[xs / CHUNK] = 0;
         blocks[(xs + n - 1) / CHUNK] = 0;
     }}
+    // each pixel's material, and whether one of the chunk's samples a texture: where none
+    // does, the chunk neither gathers its corners' uvs nor computes their footprint or the
+    // surface's uv, which only texture lookups read (a material run by run)
+    bool uv_wanted = false;
+    for (int j = 0, last = -1; j < n; ++j) {{
+        const int tri = tris[xs + j];
+        const int mid = tri >= 0 ? scene.triangle_material.data[tri] : -1;
+        mids[j] = mid;
+        if (mid >= 0 && mid != last) {{
+            last = mid;
+            const auto& m = scene.materials.data[mid];
+            uv_wanted = uv_wanted || {SAMPLES_TEXTURES_CPP};
+        }}
+    }}
     // (1) the corners: where the chunk's runs of pixels on one triangle are short (small
     // triangles, where a run's own loads and the branches ending it cost more than the
     // loads they save), each pixel's own, gathered across the chunk; else once a run
@@ -779,9 +800,10 @@ for (; xs < x1; xs += CHUNK) {{
             ax[j] = hit ? P[ia[j]] : 0.0f; ay[j] = hit ? P[ia[j] + 1] : 0.0f; az[j] = hit ? P[ia[j] + 2] : 0.0f;
             bx[j] = hit ? P[ib[j]] : 0.0f; by[j] = hit ? P[ib[j] + 1] : 0.0f; bz[j] = hit ? P[ib[j] + 2] : 0.0f;
             cx[j] = hit ? P[ic[j]] : 0.0f; cy[j] = hit ? P[ic[j] + 1] : 0.0f; cz[j] = hit ? P[ic[j] + 2] : 0.0f;
-            u0[j] = hit ? UV[t2] : 0.0f; v0[j] = hit ? UV[t2 + 1] : 0.0f;
-            u1[j] = hit ? UV[t2 + 2] : 0.0f; v1[j] = hit ? UV[t2 + 3] : 0.0f;
-            u2[j] = hit ? UV[t2 + 4] : 0.0f; v2[j] = hit ? UV[t2 + 5] : 0.0f;
+            const bool uv = hit && uv_wanted;
+            u0[j] = uv ? UV[t2] : 0.0f; v0[j] = uv ? UV[t2 + 1] : 0.0f;
+            u1[j] = uv ? UV[t2 + 2] : 0.0f; v1[j] = uv ? UV[t2 + 3] : 0.0f;
+            u2[j] = uv ? UV[t2 + 4] : 0.0f; v2[j] = uv ? UV[t2 + 5] : 0.0f;
             mx[j] = hit ? NN[n3] : 0.0f; my[j] = hit ? NN[n3 + 1] : 0.0f; mz[j] = hit ? NN[n3 + 2] : 0.0f;
             nx1[j] = hit ? NN[n3 + 3] : 0.0f; ny1[j] = hit ? NN[n3 + 4] : 0.0f; nz1[j] = hit ? NN[n3 + 5] : 0.0f;
             ox[j] = hit ? NN[n3 + 6] : 0.0f; oy[j] = hit ? NN[n3 + 7] : 0.0f; oz[j] = hit ? NN[n3 + 8] : 0.0f;
@@ -799,9 +821,11 @@ for (; xs < x1; xs += CHUNK) {{
             a = corners[index[k]];
             b = corners[index[k + 1]];
             c = corners[index[k + 2]];
-            ta = uvs[k];
-            tb = uvs[k + 1];
-            tc = uvs[k + 2];
+            if (uv_wanted) {{
+                ta = uvs[k];
+                tb = uvs[k + 1];
+                tc = uvs[k + 2];
+            }}
             na = corner_normals[k];
             nb = corner_normals[k + 1];
             nc = corner_normals[k + 2];
@@ -817,13 +841,19 @@ for (; xs < x1; xs += CHUNK) {{
         run = end;
     }}
     }}
+    // (2) across the chunk (``footprint`` a literal: without it the uv footprint folds away)
+    auto frames = [&](const bool footprint) WH_INLINE {{
     for (int j = 0; j < n; ++j) {{
         {_LANE_RAY_CPP}{_RESOLVED_HIT_CPP if resolve else ""}
         const wp::vec2 uv0(u0[j], v0[j]);
         const wp::vec2 uv1(u1[j], v1[j]);
         const wp::vec2 uv2(u2[j], v2[j]);
-        {UV_FOOTPRINT_CPP}
-        f0[j] = fp[0]; f1[j] = fp[1]; f2[j] = fp[2]; f3[j] = fp[3];
+        if (footprint) {{
+            {UV_FOOTPRINT_CPP}
+            f0[j] = fp[0]; f1[j] = fp[1]; f2[j] = fp[2]; f3[j] = fp[3];
+        }} else {{
+            f0[j] = 0.0f; f1[j] = 0.0f; f2[j] = 0.0f; f3[j] = 0.0f;
+        }}
         wp::vec3 position, ng, nn;
         float u, v;
         bool front;  // (the G-buffer keeps no side)
@@ -835,6 +865,8 @@ for (; xs < x1; xs += CHUNK) {{
         sx[j] = nn[0]; sy[j] = nn[1]; sz[j] = nn[2];
         tu[j] = u; tv[j] = v;
     }}
+    }};
+    if (uv_wanted) frames(true); else frames(false);
     // (3) the materials, one at a time over the chunk: the level of detail, the taps
     // (where both axes repeat) and the finish vectorised across the chunk for a material
     // whose only texture is its diffuse colour (a patch of one mesh, the common case, takes
@@ -842,8 +874,6 @@ for (; xs < x1; xs += CHUNK) {{
     // lanes computed and dropped); any other material's pixels one by one (``wh_material``).
     int chunk_mid = -2;  // -2: no hit yet, -1: more than one material
     for (int j = 0; j < n; ++j) {{
-        const int tri = tris[xs + j];
-        mids[j] = tri >= 0 ? scene.triangle_material.data[tri] : -1;
         if (mids[j] >= 0) chunk_mid = chunk_mid == -2 ? mids[j] : (chunk_mid == mids[j] ? chunk_mid : -1);
     }}
     auto across = [&](const int mid) WH_INLINE -> bool {{

@@ -510,13 +510,20 @@ def uv_footprint(scene: SceneGPU, tri: int, origin: wp.vec3, d: wp.vec3, ddx: wp
     )
 
 
-@wp.func(inline=True)
+#: C++ expression: whether material ``m`` (a ``MaterialGPU``) samples any texture (only then
+#: does a caller need the footprint ``surface_at_grad`` filters over, or the uv at all).
+SAMPLES_TEXTURES_CPP = (
+    "(wp::max(wp::max(wp::max(m.diffuse_tex, m.emissive_tex), wp::max(m.roughness_tex, m.metallic_tex)),"
+    " wp::max(m.opacity_tex, m.normal_tex)) >= 0)"
+)
+
+
+@wp.func_native(
+    f"const auto& m = scene.materials.data[scene.triangle_material.data[tri]];\nreturn {SAMPLES_TEXTURES_CPP};"
+)
 def samples_textures(scene: SceneGPU, tri: int) -> bool:
-    """Whether the triangle's material samples any texture (only then does a caller need
-    the footprint ``surface_at_grad`` filters over)."""
-    m = scene.materials[scene.triangle_material[tri]]
-    slots = wp.max(wp.max(m.diffuse_tex, m.emissive_tex), wp.max(m.roughness_tex, m.metallic_tex))
-    return wp.max(wp.max(slots, m.opacity_tex), m.normal_tex) >= 0
+    """Whether the triangle's material samples any texture (``SAMPLES_TEXTURES_CPP``)."""
+    ...
 
 
 @wp.func(inline=True)

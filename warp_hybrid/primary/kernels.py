@@ -681,10 +681,12 @@ _RESOLVED_HIT_CPP = f"""
         bv[j] = hit_lane ? rt_bv : 0.0f;"""
 
 
-# The surface pass's row loop: a chunk of pixels at a time, (1) a gather of each pixel's
-# triangle corners, corner uvs and normals and its barycentrics (none for the background):
-# once for a run of pixels on one triangle, or lane by lane across the chunk where its runs
-# are short (``SHORT_RUN_PIXELS``), (2) the camera ray, the uv footprint
+# The surface pass's row loop: a chunk of pixels at a time, each pixel's material and
+# whether the chunk samples a texture (where none of its materials does, its uvs, their
+# footprint and the surface's uv are left out: only texture lookups read them), (1) a
+# gather of each pixel's triangle corners, corner uvs and normals and its barycentrics
+# (none for the background): once for a run of pixels on one triangle, or lane by lane
+# across the chunk where its runs are short (``SHORT_RUN_PIXELS``), (2) the camera ray, the uv footprint
 # (``UV_FOOTPRINT_CPP``) and the surface's frame (``wh_surface_frame``) as plain arithmetic
 # over the chunk (the compiler vectorises it across pixels), (3) the materials
 # (``wh_material``, its textures filtered over the footprint): each material whose only

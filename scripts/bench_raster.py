@@ -2,7 +2,10 @@
 
 For each scene at 640x480 (median of 5 after a warm-up): ms for load, upload, BVH
 build, raster, resolve, the attribute pass both paths share (surface), lighting, and
-for casting the primaries instead of raster + resolve (``raycast``: through the scene's
+for casting the primaries instead of raster + resolve (raster and resolve timed as the
+hit record's passes alone, ``Rasterizer.find_hits``, as the casters are: a frame's
+surface pass resolves the raster hit record itself, its time in ``surface``;
+``raycast``: through the scene's
 4-wide BVH copy on the CPU, Warp's query on CUDA; ``raycast warp``: through
 ``wp.mesh_query_ray`` on the CPU too, alternating with the other in one process);
 the speed ratio of primary visibility; the share of pixels where the two
@@ -33,7 +36,7 @@ def measure_scene(path: str, width: int, height: int, repeats: int, device: str 
     from warp_hybrid.core.camera import make_camera_gpu
     from warp_hybrid.core.gbuffer import GBuffer
     from warp_hybrid.parallel import Launcher
-    from warp_hybrid.primary import RayCaster
+    from warp_hybrid.primary import Rasterizer, RayCaster
     from warp_hybrid.renderer import Renderer, RenderSettings
     from warp_hybrid.runtime import init_warp
     from warp_hybrid.scene.open import open_scene_source
@@ -60,8 +63,12 @@ def measure_scene(path: str, width: int, height: int, repeats: int, device: str 
     if renderer.device.is_cpu:
         casters["raycast_warp"] = RayCaster(launcher, wide_bvh=False)
 
+    rasterizer, hits_gb = Rasterizer(launcher), GBuffer(width, height, renderer.device)
+
     def cast() -> dict[str, float]:
-        out = {}
+        timer = StageTimer()
+        rasterizer.find_hits(renderer.device_scene, cam, hits_gb, timer)  # the raster hit record's passes alone
+        out = {"raster": timer.stages_ms["raster"], "resolve": timer.stages_ms["resolve"]}
         for name, caster in reversed(casters.items()):  # the default last: its G-buffer is compared
             timer = StageTimer()
             caster.render(renderer.device_scene, cam, ray_gb, timer)

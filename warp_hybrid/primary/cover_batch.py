@@ -148,6 +148,12 @@ for (int j = 0; j < n; ++j) {{
     auto depth_key = [&](const float denom) -> uint64_t {{
         return ((uint64_t)__builtin_bit_cast(unsigned int, wp::div(farea, denom)) << 32) | id;
     }};
+    // the edge values at the sample point (px, py), in 1/256 px (exact integers)
+    auto edges = [&](const int64_t px, const int64_t py, int64_t& a, int64_t& b, int64_t& c) {{
+        a = (pcx - pbx) * (py - pby) - (pcy - pby) * (px - pbx) + bias_a;
+        b = (pax - pcx) * (py - pcy) - (pay - pcy) * (px - pcx) + bias_b;
+        c = (pbx - pax) * (py - pay) - (pby - pay) * (px - pax) + bias_c;
+    }};
     if (!wide && target.mode == {int(MODE_DEPTH)} && target.keys.strides[2] == sizeof(uint64_t) &&
         x0 + TILE <= (int)target.keys.shape[2]) {{
         // a narrow box (its columns fit a tile's): TILE rows at a time, the tile's pixel
@@ -162,9 +168,8 @@ for (int j = 0; j < n; ++j) {{
             for (int q = 0; q < TILE * TILE; ++q) {{
                 const int64_t px = px0 + (int64_t)(q % TILE) * SUB;
                 const int64_t py = (int64_t)(ty + q / TILE) * SUB + HALF_SUB;
-                const int64_t a = (pcx - pbx) * (py - pby) - (pcy - pby) * (px - pbx) + bias_a;
-                const int64_t b = (pax - pcx) * (py - pcy) - (pay - pcy) * (px - pcx) + bias_b;
-                const int64_t c = (pbx - pax) * (py - pay) - (pby - pay) * (px - pax) + bias_c;
+                int64_t a, b, c;
+                edges(px, py, a, b, c);
                 const float denom = denom_at(a, b, c);
                 covered[q] = (a | b | c) >= 0 && denom >= min_denom;
                 values[q] = depth_key(denom);
@@ -183,9 +188,8 @@ for (int j = 0; j < n; ++j) {{
     }}
     for (int y = by0[j]; y <= by1[j]; ++y) {{
         const int64_t py = (int64_t)y * SUB + HALF_SUB;
-        int64_t wa = (pcx - pbx) * (py - pby) - (pcy - pby) * (px0 - pbx) + bias_a;
-        int64_t wb = (pax - pcx) * (py - pcy) - (pay - pcy) * (px0 - pcx) + bias_b;
-        int64_t wc = (pbx - pax) * (py - pay) - (pby - pay) * (px0 - pax) + bias_c;
+        int64_t wa, wb, wc;
+        edges(px0, py, wa, wb, wc);
         int lo = 0, hi = x1 - x0;
         if (wide) {{
             float slo = 0.0f, shi = span_max;

@@ -381,6 +381,20 @@ for (int j = 0; j < n; ++j) {{
 #: others load them once a run.
 SHORT_RUN_PIXELS = 4
 
+# C++ the resolve's row loop and the resolving surface loop share (given ``keys``, the
+# coverage pass's key slices, and row ``y``): the empty key and the row's keys in the
+# first slice; then for a chunk (``xs``, ``n`` lanes) the smallest of each pixel's keys
+# over the slices into ``key``.
+_ROW_KEYS_CPP = f"""const wp::uint64 empty = {int(EMPTY_KEY.value)}ull;
+const wp::uint64* first_keys = (const wp::uint64*)((const char*)keys.data + (size_t)y * keys.strides[1]);
+"""
+_SMALLEST_KEYS_CPP = """
+    for (int j = 0; j < n; ++j) key[j] = first_keys[xs + j];
+    for (int s = 1; s < (int)keys.shape[0]; ++s) {
+        const wp::uint64* slice = (const wp::uint64*)((const char*)first_keys + (size_t)s * keys.strides[0]);
+        for (int j = 0; j < n; ++j) key[j] = wp::min(key[j], slice[xs + j]);
+    }"""
+
 # The resolve's row loop: a chunk of pixels at a time, (1) the smallest key over the
 # slices, (2) the corners of each pixel's triangle (none for an empty key; gathered, or
 # once a run of pixels on one triangle: ``SHORT_RUN_PIXELS``),
@@ -395,25 +409,19 @@ _RESOLVE_SPAN_CPP = (
     + LAMBDA_HEADER_CPP
     + STREAM_CPP
     + f"""
-const wp::uint64 empty = {int(EMPTY_KEY.value)}ull;
-const wp::vec3* corners = points.data;
+{_ROW_KEYS_CPP}const wp::vec3* corners = points.data;
 const int* index = indices.data;
 const wp::vec3 o = cam.origin;
 const wp::vec3 fwd = cam.forward;
 const float py = wp::add((float)y, cam.sample[1]);
 const size_t row = (size_t)y * (size_t)cam.width;
-const wp::uint64* first = (const wp::uint64*)((const char*)keys.data + (size_t)y * keys.strides[1]);
 wp::uint64 key[CHUNK];
 {_CORNER_LANES_CPP}
 float hit_t[CHUNK], hit_u[CHUNK], hit_v[CHUNK];
 int tri_v[CHUNK];
 for (int xs = x0; xs < x1; xs += CHUNK) {{
     const int n = x1 - xs < CHUNK ? x1 - xs : CHUNK;
-    for (int j = 0; j < n; ++j) key[j] = first[xs + j];
-    for (int s = 1; s < (int)keys.shape[0]; ++s) {{
-        const wp::uint64* slice = (const wp::uint64*)((const char*)first + (size_t)s * keys.strides[0]);
-        for (int j = 0; j < n; ++j) key[j] = wp::min(key[j], slice[xs + j]);
-    }}
+{_SMALLEST_KEYS_CPP}
     int hits = 0;
     for (int j = 0; j < n; ++j) hits += key[j] != empty ? 1 : 0;
     if (hits == 0) {{  // (a chunk of background alone: its miss values, no corners or rays)
@@ -640,19 +648,15 @@ _WRITE_LANES_CPP = (
 # ``hits`` counted; the background's depth and barycentrics written with a background
 # chunk's other channels; in (2)'s loop ``EXACT_HIT_CPP`` on the lane's corners and camera
 # ray; the record's depth and barycentrics written with the other channels.
-_RESOLVED_ROW_CPP = f"""const wp::uint64 empty = {int(EMPTY_KEY.value)}ull;
-const wp::vec3 fwd = cam.forward;
-const wp::uint64* first_keys = (const wp::uint64*)((const char*)keys.data + (size_t)y * keys.strides[1]);
+_RESOLVED_ROW_CPP = f"""{_ROW_KEYS_CPP}const wp::vec3 fwd = cam.forward;
 int* const tri_ids = gb.triangle_id.data + row;
 float hit_t[CHUNK], hit_u[CHUNK], hit_v[CHUNK];
 """
-_RESOLVED_CHUNK_CPP = """{
-        wp::uint64 key[CHUNK];
-        for (int j = 0; j < n; ++j) key[j] = first_keys[xs + j];
-        for (int s = 1; s < (int)keys.shape[0]; ++s) {
-            const wp::uint64* slice = (const wp::uint64*)((const char*)first_keys + (size_t)s * keys.strides[0]);
-            for (int j = 0; j < n; ++j) key[j] = wp::min(key[j], slice[xs + j]);
-        }
+_RESOLVED_CHUNK_CPP = (
+    """{
+        wp::uint64 key[CHUNK];"""
+    + _SMALLEST_KEYS_CPP
+    + """
         int tri_v[CHUNK];
         for (int j = 0; j < n; ++j) {
             tri_v[j] = key[j] != empty ? (int)(key[j] & 0xFFFFFFFFull) : miss_triangle;
@@ -661,6 +665,7 @@ _RESOLVED_CHUNK_CPP = """{
         if (!(hits == 0 && whole && blocks[xs / CHUNK] != 0))
             for (int j = 0; j < n; ++j) tri_ids[xs + j] = tri_v[j];
     }"""
+)
 _HIT_RECORD_WRITE_CPP = """
         wh_write_floats(gb.depth.data + row + xs, 1, n, hit_t, nullptr, nullptr, nullptr);
         wh_write_floats((float*)(gb.barycentric.data + row + xs), 2, n, hit_u, hit_v, nullptr, nullptr);"""

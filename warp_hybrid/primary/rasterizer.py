@@ -187,17 +187,15 @@ class Rasterizer(PrimaryVisibility):
     ) -> None:
         """Rasterize ``scene`` seen by ``camera`` and resolve each pixel's hit record (in
         ``rows``, default every row)."""
-        if rows is not None and rows[0] >= rows[1]:
+        keys = self._raster_stage(scene, camera, gbuffer, timer, rows)
+        if keys is None:
             return
-        keys = self._slices(gbuffer.height, gbuffer.width)
-        with timer.stage("raster"):
-            written = self._rasterize(scene, camera, keys, MODE_DEPTH, _EMPTY_KEY, rows)
         with timer.stage("resolve"):
             self.launcher.launch_pixels(
                 kernels.resolve_kernel,
                 gbuffer.height,
                 gbuffer.width,
-                [scene.gpu, camera, keys[:written], gbuffer.rows()],
+                [scene.gpu, camera, keys, gbuffer.rows()],
                 rows=rows,
             )
 
@@ -207,15 +205,24 @@ class Rasterizer(PrimaryVisibility):
         """The raster stage alone: the key slices it wrote, which the surface pass resolves
         as it reads them (``kernels.surface_kernel``: the resolve's work inside the surface
         stage, whose pixels it would re-read; the "resolve" stage stays, 0 ms)."""
+        keys = self._raster_stage(scene, camera, gbuffer, timer, rows)
+        if keys is not None:
+            timer.add("resolve", 0.0)
+        return keys
+
+    def _raster_stage(
+        self, scene: DeviceScene, camera: CameraGPU, gbuffer: GBuffer, timer: StageTimer, rows: RowSpan | None
+    ) -> wp.array | None:
+        """Stage "raster" over ``rows`` (default every row) of key slices sized for
+        ``gbuffer``: the slices it wrote, as one array (kept: a Warp array's slice costs
+        ~7 us to make); None where ``rows`` is empty."""
         if rows is not None and rows[0] >= rows[1]:
             return None
         keys = self._slices(gbuffer.height, gbuffer.width)
         with timer.stage("raster"):
             written = self._rasterize(scene, camera, keys, MODE_DEPTH, _EMPTY_KEY, rows)
-            # (the slices written as one array, kept: a Warp array's slice costs ~7 us to make)
             if self._written is None or self._written[0] is not keys or self._written[1] != written:
                 self._written = (keys, written, keys[:written])
-        timer.add("resolve", 0.0)
         return self._written[2]
 
     def overdraw(self, scene: DeviceScene, camera: CameraGPU) -> np.ndarray:

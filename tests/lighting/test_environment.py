@@ -210,6 +210,21 @@ def test_prefiltered_radiance(device):
     assert [m.shape[:2] for m in radiance_mips(stripe[..., :3])] == [(32, 64), (16, 32), (8, 16), (4, 8)]
 
 
+def test_the_mip_pool_holds_the_levels_back_to_back_then_one_spare_texel(device):
+    # (the CPU's lookups load a vec3 texel's three floats as four: the last level's last
+    # texel needs the spare one after it inside the pool)
+    rng = np.random.default_rng(3)
+    pixels = rng.uniform(0.0, 4.0, (32, 64, 4)).astype(np.float32)
+    amb = _dome_scene(device, pixels).ambient
+    mips = radiance_mips(pixels[..., :3])
+    pool = amb.mip_texels.numpy()
+    sizes = [m.shape[0] * m.shape[1] for m in mips]
+    assert pool.shape == (sum(sizes) + 1, 3)
+    np.testing.assert_array_equal(amb.mip_offset.numpy(), np.cumsum([0] + sizes[:-1]))
+    np.testing.assert_array_equal(pool[:-1], np.concatenate([m.reshape(-1, 3) for m in mips]))
+    np.testing.assert_array_equal(pool[-1], 0.0)
+
+
 def test_ambient_data_is_owned_by_the_device_scene_and_follows_the_dome(device):
     ds = _dome_scene(device, None, color=(0.2, 0.4, 0.6))
     first = ds.ambient

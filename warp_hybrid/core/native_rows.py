@@ -82,6 +82,34 @@ auto wh_add_products = [&](const float a, const float s, const float b, const fl
 auto wh_lerp_contracted = [&](const float a, const float b, const float t) WH_INLINE -> float {
     return wh_add_products(a, wp::sub(1.0f, t), b, t);
 };
+#if !defined(__CUDA_ARCH__)
+// Four floats as one vector register: a texel's channels blended at once, each as
+// ``wh_lerp_contracted`` blends a float (the same bits).
+typedef float wh_float4 __attribute__((ext_vector_type(4)));
+auto wh_load4 = [&](const float* p) WH_INLINE -> wh_float4 {
+    wh_float4 v;
+    __builtin_memcpy(&v, p, sizeof(v));
+    return v;
+};
+auto wh_lerp4 = [&](const wh_float4 a, const wh_float4 b, const float t) WH_INLINE -> wh_float4 {
+    const wh_float4 s = wp::sub(1.0f, t);
+    const wh_float4 bt = b * t;
+#if defined(WH_FMA_CONTRACTION)
+    return __builtin_elementwise_fma(a, s, bt);
+#else
+    const wh_float4 as = a * s;
+    return as + bt;
+#endif
+};
+// The bilinear blend of four texels of ``stride`` floats at ``source`` (texel indices i00,
+// i01 in the upper row, i10, i11 in the lower; their first three floats, a fourth loaded
+// with them), by weights fx, fy: ``wh_bilinear_blend``'s order of blends.
+auto wh_bilinear4 = [&](const float* source, const int stride, const int i00, const int i01, const int i10,
+                        const int i11, const float fx, const float fy) WH_INLINE -> wh_float4 {
+    return wh_lerp4(wh_lerp4(wh_load4(source + stride * i00), wh_load4(source + stride * i01), fx),
+                    wh_lerp4(wh_load4(source + stride * i10), wh_load4(source + stride * i11), fx), fy);
+};
+#endif
 // ``wp::normalize``'s arithmetic (a zero vector stays zero).
 auto wh_normalize = [&](const wp::vec3& a) WH_INLINE -> wp::vec3 {
     const float l = wp::length(a);

@@ -17,7 +17,7 @@ untextured one) from one irradiance and one radiance for the row; under a textur
 the SH irradiance at each normal, the lat-long uvs each pixel reads, the mip levels it
 blends and each bilinear fetch's texel indices and weights vectorised too, and the
 texel loads and their blend (the prefiltered mip chain, the dome behind glass, the
-background) gathered across pixels; then ``wh_surface_radiance`` with the split-sum
+background) pixel by pixel, a texel one 16-byte load; then ``wh_surface_radiance`` with the split-sum
 ``wh_env_brdf`` across pixels again.  The same lambdas as the scalar functions, so the same arithmetic; in
 ``direct_span`` background pixels get a value the caller ignores.  The loop's pieces
 (the lane arrays, a lane's fill, steps (2) and (3) with their diffuse colour and sum
@@ -169,11 +169,11 @@ def dome_terms_cpp(raster: bool) -> str:
     blends with a second value (the next level ``fb``, or past the chain's top the SH
     irradiance) and by what weights, and each fetch's footprint (every lane's, as the loop
     has no branches); (b) the loads of the fetches a lane uses and their bilinear blend,
-    gathered across lanes (``environment.texel_gather_cpp``); (c) across lanes the looked-up radiance into ``sr, sg, sb`` (the dome's
+    lane by lane (``environment.texel_gather_cpp``); (c) across lanes the looked-up radiance into ``sr, sg, sb`` (the dome's
     colour, scale and bias on level 0's values, the blend of the two values); and with
     ``raster``, in a chunk with a transmissive pixel (``glass_lanes``), the dome straight
     behind each glass pixel (what glass lets through) into ``tr, tg, tb``, its uv and
-    footprint across lanes, its loads gathered.  ``hit[j]``: the lane reads the
+    footprint across lanes, its loads lane by lane.  ``hit[j]``: the lane reads the
     lobe at its surface's mirror direction; a lane that is not one reads level 0 along its
     camera ray with ``raster``, nothing without (its values are not used; a chunk without
     a lane that reads the lobe then takes the irradiance alone, its radiance zero).  The same

@@ -703,6 +703,74 @@ _RESOLVED_HIT_CPP = f"""
 # ``surface_at_grad``, so the same bits.
 
 
+#: The surface loop's taps of a material's diffuse texture that repeats in both axes (given
+#: the binding ``t``, the lanes' texture uvs ``su, sv``, their level ``level`` and blend
+#: toward the next ``frac``): across lanes each level's bilinear footprint
+#: (``wh_repeat_footprint``: background lanes tap harmlessly); then on the CPU lane by lane,
+#: only the material's lanes (the others' values are dropped), each texel one 16-byte load
+#: and its channels blended at once (``wh_bilinear4``; a gather across lanes, three a
+#: texel, took a cycle or more a float), the coarse level only where it is blended in; on
+#: CUDA channel by channel.  ``wh_bilinear_repeat_channel``'s and ``wh_mip_blend``'s
+#: operations, then the binding's scale and bias: the same bits.
+_REPEAT_TAPS_CPP = """
+                int a00[CHUNK], a01[CHUNK], a10[CHUNK], a11[CHUNK], b00[CHUNK], b01[CHUNK], b10[CHUNK], b11[CHUNK];
+                float ax[CHUNK], ay[CHUNK], bx[CHUNK], by[CHUNK];
+                bool fine_finite[CHUNK], coarse_finite[CHUNK];
+                for (int j = 0; j < n; ++j) {
+                    const int l = level[j];
+                    const int u = wp::min(l + 1, t.levels - 1);
+                    const int fine = l == 0 ? t.offset : t.level_offsets[l];
+                    const int coarse = t.level_offsets[u];
+                    const int fw = wp::max(t.width >> l, 1), fh = wp::max(t.height >> l, 1);
+                    const int cw = wp::max(t.width >> u, 1), ch = wp::max(t.height >> u, 1);
+                    fine_finite[j] = wh_repeat_footprint(fine, fw, fh, su[j], sv[j], a00[j], a01[j], a10[j], a11[j],
+                                                         ax[j], ay[j]);
+                    coarse_finite[j] = wh_repeat_footprint(coarse, cw, ch, su[j], sv[j], b00[j], b01[j], b10[j],
+                                                           b11[j], bx[j], by[j]);
+                }
+#if defined(__CUDA_ARCH__)
+                const float* flat = (const float*)scene.texels.data;
+                for (int j = 0; j < n; ++j) {
+                    auto tap = [&](const int i00, const int i01, const int i10, const int i11, const float wx1,
+                                   const float wy1, const bool finite, const int k) WH_INLINE -> float {
+                        const float top = wh_lerp(flat[4 * i00 + k], flat[4 * i01 + k], wx1);
+                        const float bottom = wh_lerp(flat[4 * i10 + k], flat[4 * i11 + k], wx1);
+                        return finite ? wh_lerp(top, bottom, wy1) : 0.0f;
+                    };
+                    auto channel = [&](int k) WH_INLINE -> float {
+                        const float a = tap(a00[j], a01[j], a10[j], a11[j], ax[j], ay[j], fine_finite[j], k);
+                        const float b = tap(b00[j], b01[j], b10[j], b11[j], bx[j], by[j], coarse_finite[j], k);
+                        return wp::add(wp::mul(wh_mip_blend(a, b, frac[j]), t.scale[k]), t.bias[k]);
+                    };
+                    dr[j] = channel(0); dg[j] = channel(1); db[j] = channel(2);
+                }
+#else
+                const float* flat = (const float*)scene.texels.data;
+                const wh_float4 scale{t.scale[0], t.scale[1], t.scale[2], t.scale[3]};
+                const wh_float4 bias{t.bias[0], t.bias[1], t.bias[2], t.bias[3]};
+                #pragma clang loop vectorize(disable)
+                for (int j = 0; j < n; ++j) {
+                    if (mids[j] != mid) {
+                        dr[j] = dg[j] = db[j] = 0.0f;
+                        continue;
+                    }
+                    const wh_float4 zero = 0.0f;
+                    const wh_float4 a = fine_finite[j] ? wh_bilinear4(flat, 4, a00[j], a01[j], a10[j], a11[j], ax[j], ay[j])
+                                                       : zero;
+                    wh_float4 filtered = a;
+                    if (frac[j] > 0.0f) {
+                        const wh_float4 b = coarse_finite[j] ? wh_bilinear4(flat, 4, b00[j], b01[j], b10[j], b11[j], bx[j],
+                                                                            by[j])
+                                                             : zero;
+                        filtered = wh_lerp4(a, b, frac[j]);
+                    }
+                    const wh_float4 scaled = filtered * scale;
+                    const wh_float4 c = scaled + bias;
+                    dr[j] = c[0]; dg[j] = c[1]; db[j] = c[2];
+                }
+#endif"""
+
+
 def _surface_span_cpp(resolve: bool) -> str:
     """The C++ of the surface row loop (above): without ``resolve`` over the hit record in
     the G-buffer; with it the raster frame's resolve too (``_resolved_surface_span``): (0)
@@ -898,24 +966,7 @@ for (; xs < x1; xs += CHUNK) {{
                 su[j] = st[0]; sv[j] = st[1];
                 wh_mip_level(t, wh_lod(t, wp::vec4(f0[j], f1[j], f2[j], f3[j])), level[j], frac[j]);
             }}
-            if (t.wrap_s == {int(Wrap.REPEAT)} && t.wrap_t == {int(Wrap.REPEAT)}) {{
-                // one channel at a time over the chunk (background lanes tap harmlessly)
-                const wp::vec4* texels = scene.texels.data;
-                #pragma clang loop vectorize(enable)
-                for (int j = 0; j < n; ++j) {{
-                    const int l = level[j];
-                    const int u = wp::min(l + 1, t.levels - 1);
-                    const int fine = l == 0 ? t.offset : t.level_offsets[l];
-                    const int coarse = t.level_offsets[u];
-                    const int fw = wp::max(t.width >> l, 1), fh = wp::max(t.height >> l, 1);
-                    const int cw = wp::max(t.width >> u, 1), ch = wp::max(t.height >> u, 1);
-                    auto channel = [&](int k) WH_INLINE -> float {{
-                        const float a = wh_bilinear_repeat_channel(texels, fine, fw, fh, su[j], sv[j], k);
-                        const float b = wh_bilinear_repeat_channel(texels, coarse, cw, ch, su[j], sv[j], k);
-                        return wp::add(wp::mul(wh_mip_blend(a, b, frac[j]), t.scale[k]), t.bias[k]);
-                    }};
-                    dr[j] = channel(0); dg[j] = channel(1); db[j] = channel(2);
-                }}
+            if (t.wrap_s == {int(Wrap.REPEAT)} && t.wrap_t == {int(Wrap.REPEAT)}) {{{_REPEAT_TAPS_CPP}
             }} else {{
                 for (int j = 0; j < n; ++j) {{
                     if (mids[j] < 0) continue;

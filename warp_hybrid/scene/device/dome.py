@@ -140,7 +140,9 @@ def build_ambient(scene: Scene, device: wp.context.Device) -> AmbientGPU:
     g.sh = wp.array(sh, dtype=wp.vec3, device=device)
     g.sh_bands = 1 if not np.any(sh[1:]) else 3
     offsets = np.cumsum([0] + [m.shape[0] * m.shape[1] for m in mips])
-    flat = np.concatenate([m.reshape(-1, 3) for m in mips]) if mips else np.zeros((1, 3), np.float32)
+    # (and one spare texel after the last level, no level's: the CPU's lookups load a
+    # texel's three floats as four, ``wh_load4``)
+    flat = np.concatenate([m.reshape(-1, 3) for m in mips] + [np.zeros((1, 3), np.float32)])
     g.mip_texels = wp.array(np.ascontiguousarray(flat, dtype=np.float32), dtype=wp.vec3, device=device)
     g.mip_offset = wp.array(np.asarray(offsets[:-1] if mips else [0], np.int32), dtype=wp.int32, device=device)
     g.mip_width = wp.array(np.asarray([m.shape[1] for m in mips] or [1], np.int32), dtype=wp.int32, device=device)

@@ -237,12 +237,17 @@ def texel_gather_cpp(
     the four texels' first three channels blended as ``wh_bilinear_blend`` blends them
     (``wh_lerp_contracted``: the same bits under the module's contraction), from
     ``dome`` (a ``const float*`` over vec4 texels) where ``on_dome`` (a condition on ``j``),
-    else from ``mips`` (over vec3 texels).  Each load is a conditional read of a flat float
-    array, so the compiler gathers them across the lanes; a block whose wanted lanes all
-    read one source reads that one alone, one without a wanted lane nothing."""
+    else from ``mips`` (over vec3 texels, one spare texel after the last).  On the CPU lane
+    by lane, each texel one 16-byte load and its channels blended at once
+    (``wh_bilinear4``: a gather across lanes, three a texel, took a cycle or more a float);
+    on CUDA, where a chunk is one lane, each load a conditional read of a flat float array,
+    a block whose wanted lanes all read one source reading that one alone."""
     f = footprint
     return f"""
     {{
+        const float* dome_floats = {dome};
+        const float* mip_floats = {mips};
+#if defined(__CUDA_ARCH__)
         int dome_lanes = 0, mip_lanes = 0;
         for (int j = 0; j < {lanes}; ++j) {{
             const bool wanted = {wanted};
@@ -250,10 +255,7 @@ def texel_gather_cpp(
             dome_lanes += wanted && on_dome ? 1 : 0;
             mip_lanes += wanted && !on_dome ? 1 : 0;
         }}
-        const float* dome_floats = {dome};
-        const float* mip_floats = {mips};
         auto gather = [&](const bool dome_source, const bool mip_source) WH_INLINE {{
-            #pragma clang loop vectorize(assume_safety)
             for (int j = 0; j < {lanes}; ++j) {{
                 const bool wanted = {wanted};
                 const bool on_dome = {on_dome};
@@ -277,6 +279,19 @@ def texel_gather_cpp(
         else if (mip_lanes == 0) gather(true, false);
         else if (dome_lanes == 0) gather(false, true);
         else gather(true, true);
+#else
+        #pragma clang loop vectorize(disable)
+        for (int j = 0; j < {lanes}; ++j) {{
+            if (!({wanted})) {{
+                {f}c[0][j] = {f}c[1][j] = {f}c[2][j] = 0.0f;
+                continue;
+            }}
+            const bool on_dome = {on_dome};
+            const wh_float4 value = wh_bilinear4(on_dome ? dome_floats : mip_floats, on_dome ? 4 : 3, {f}00[j],
+                                                 {f}01[j], {f}10[j], {f}11[j], {f}x[j], {f}y[j]);
+            {f}c[0][j] = value[0]; {f}c[1][j] = value[1]; {f}c[2][j] = value[2];
+        }}
+#endif
     }}"""
 
 

@@ -105,11 +105,12 @@ class SurfaceHit:
 TEXTURE_CPP = (
     LAMBDA_HEADER_CPP
     + """
-// Channel k of the bilinear lookup in the width x height level at offset, repeating in both
-// axes.  Branch-free, one channel at a time, so a loop over pixels vectorises it (a
-// non-finite point taps texel 0 and reads black).
-auto wh_bilinear_repeat_channel = [&](const wp::vec4* texels, int offset, int width, int height, float u, float v,
-                                      int k) WH_INLINE -> float {
+// The bilinear footprint of (u, v) in the width x height level at texel offset ``offset``,
+// repeating in both axes: the four texels' indices into the pool (i00, i01 in the upper row,
+// i10, i11 in the lower) and the blend's weights wx1, wy1; false where the point is not
+// finite (its indices then texel 0's row and column, its value black).  Branch-free.
+auto wh_repeat_footprint = [&](int offset, int width, int height, float u, float v, int& i00, int& i01, int& i10,
+                               int& i11, float& wx1, float& wy1) WH_INLINE -> bool {
     const float vf = 1.0f - v;
     const float xf = (u - wp::floor(u)) * (float)width - 0.5f;
     const float yf = (vf - wp::floor(vf)) * (float)height - 0.5f;
@@ -118,8 +119,8 @@ auto wh_bilinear_repeat_channel = [&](const wp::vec4* texels, int offset, int wi
     const float y = finite ? yf : 0.0f;
     const float x0f = wp::floor(x);
     const float y0f = wp::floor(y);
-    const float wx1 = x - x0f;
-    const float wy1 = y - y0f;
+    wx1 = x - x0f;
+    wy1 = y - y0f;
     int c0 = (int)x0f;
     int r0 = (int)y0f;
     int c1 = c0 + 1;
@@ -128,12 +129,26 @@ auto wh_bilinear_repeat_channel = [&](const wp::vec4* texels, int offset, int wi
     r0 = r0 < 0 ? r0 + height : r0;
     c1 = c1 >= width ? c1 - width : c1;
     r1 = r1 >= height ? r1 - height : r1;
+    const int row0 = offset + r0 * width, row1 = offset + r1 * width;
+    i00 = row0 + c0;
+    i01 = row0 + c1;
+    i10 = row1 + c0;
+    i11 = row1 + c1;
+    return finite;
+};
+// Channel k of the bilinear lookup in the width x height level at offset, repeating in both
+// axes (``wh_repeat_footprint``).  One channel at a time, so a loop over pixels vectorises
+// it (a non-finite point taps texel 0 and reads black).
+auto wh_bilinear_repeat_channel = [&](const wp::vec4* texels, int offset, int width, int height, float u, float v,
+                                      int k) WH_INLINE -> float {
+    int i00, i01, i10, i11;
+    float wx1, wy1;
+    const bool finite = wh_repeat_footprint(offset, width, height, u, v, i00, i01, i10, i11, wx1, wy1);
     // (each texel's float by an int index into the texel pool, which a loop across pixels
     // gathers in 16 lanes; a pointer per lane took two gathers of 8: ``MAX_TEXEL_FLOATS``)
     const float* flat = (const float*)texels;
-    const int row0 = 4 * (offset + r0 * width) + k, row1 = 4 * (offset + r1 * width) + k;
-    const float top = wh_lerp(flat[row0 + 4 * c0], flat[row0 + 4 * c1], wx1);
-    const float bottom = wh_lerp(flat[row1 + 4 * c0], flat[row1 + 4 * c1], wx1);
+    const float top = wh_lerp(flat[4 * i00 + k], flat[4 * i01 + k], wx1);
+    const float bottom = wh_lerp(flat[4 * i10 + k], flat[4 * i11 + k], wx1);
     return finite ? wh_lerp(top, bottom, wy1) : 0.0f;
 };
 // All four channels.

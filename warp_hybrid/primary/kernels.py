@@ -771,6 +771,77 @@ _REPEAT_TAPS_CPP = """
 #endif"""
 
 
+#: The surface loop's step (1) for a chunk of short runs on CUDA: each lane's corners, uvs
+#: (where the chunk samples a texture) and corner normals gathered across lanes by their
+#: indices (``_corner_indices_cpp``), zero where the pixel sees no surface.
+_GATHERED_CORNERS_CUDA_CPP = f"""
+        {_corner_indices_cpp("tris[xs + j]", attributes=True)}
+        for (int j = 0; j < n; ++j) {{
+            const int tri = tris[xs + j];
+            const bool hit = tri >= 0;
+            const int t2 = kt[j], n3 = kn[j];
+            ax[j] = hit ? P[ia[j]] : 0.0f; ay[j] = hit ? P[ia[j] + 1] : 0.0f; az[j] = hit ? P[ia[j] + 2] : 0.0f;
+            bx[j] = hit ? P[ib[j]] : 0.0f; by[j] = hit ? P[ib[j] + 1] : 0.0f; bz[j] = hit ? P[ib[j] + 2] : 0.0f;
+            cx[j] = hit ? P[ic[j]] : 0.0f; cy[j] = hit ? P[ic[j] + 1] : 0.0f; cz[j] = hit ? P[ic[j] + 2] : 0.0f;
+            const bool uv = hit && uv_wanted;
+            u0[j] = uv ? UV[t2] : 0.0f; v0[j] = uv ? UV[t2 + 1] : 0.0f;
+            u1[j] = uv ? UV[t2 + 2] : 0.0f; v1[j] = uv ? UV[t2 + 3] : 0.0f;
+            u2[j] = uv ? UV[t2 + 4] : 0.0f; v2[j] = uv ? UV[t2 + 5] : 0.0f;
+            mx[j] = hit ? NN[n3] : 0.0f; my[j] = hit ? NN[n3 + 1] : 0.0f; mz[j] = hit ? NN[n3 + 2] : 0.0f;
+            nx1[j] = hit ? NN[n3 + 3] : 0.0f; ny1[j] = hit ? NN[n3 + 4] : 0.0f; nz1[j] = hit ? NN[n3 + 5] : 0.0f;
+            ox[j] = hit ? NN[n3 + 6] : 0.0f; oy[j] = hit ? NN[n3 + 7] : 0.0f; oz[j] = hit ? NN[n3 + 8] : 0.0f;
+        }}"""
+
+#: The same on the CPU: lane by lane the loads as 16-byte vectors (a corner's point, its
+#: three corner normals' nine floats as three overlapping vectors, its uvs as two), zero
+#: where the pixel sees no surface (and past the chunk's end), then each component of the
+#: sixteen lanes picked out in registers into its lane array (``WH_COMPONENT16``): a
+#: gather across lanes took a cycle or more a lane, 27 of them a chunk.  (A point's fourth
+#: float is the next point's first, or past the last one the points' spare one,
+#: ``upload._spare_padded``.)
+_LOADED_CORNERS_CPP = """
+        static_assert(CHUNK == 16, "a chunk is one register of lanes");
+        wh_float4 pa[16], pb[16], pc[16], na[16], nb[16], nc[16], ta[16], tb[16];
+        #pragma clang loop vectorize(disable)
+        for (int j = 0; j < 16; ++j) {
+            const wh_float4 zero = 0.0f;
+            pa[j] = zero; pb[j] = zero; pc[j] = zero; na[j] = zero; nb[j] = zero; nc[j] = zero; ta[j] = zero;
+            tb[j] = zero;
+            const int tri = j < n ? tris[xs + j] : -1;
+            if (tri < 0) continue;
+            const int k = 3 * tri;
+            pa[j] = wh_load4(P + 3 * index[k]);
+            pb[j] = wh_load4(P + 3 * index[k + 1]);
+            pc[j] = wh_load4(P + 3 * index[k + 2]);
+            na[j] = wh_load4(NN + 3 * k);
+            nb[j] = wh_load4(NN + 3 * k + 4);
+            nc[j] = wh_load4(NN + 3 * k + 5);
+            if (uv_wanted) {
+                ta[j] = wh_load4(UV + 2 * k);
+                tb[j] = wh_load4(UV + 2 * k + 2);
+            }
+        }
+        wh_float16 q[4];
+        wh_quads16(pa, q); wh_store16(ax, WH_COMPONENT16(q, 0)); wh_store16(ay, WH_COMPONENT16(q, 1)); wh_store16(az, WH_COMPONENT16(q, 2));
+        wh_quads16(pb, q); wh_store16(bx, WH_COMPONENT16(q, 0)); wh_store16(by, WH_COMPONENT16(q, 1)); wh_store16(bz, WH_COMPONENT16(q, 2));
+        wh_quads16(pc, q); wh_store16(cx, WH_COMPONENT16(q, 0)); wh_store16(cy, WH_COMPONENT16(q, 1)); wh_store16(cz, WH_COMPONENT16(q, 2));
+        wh_quads16(na, q); wh_store16(mx, WH_COMPONENT16(q, 0)); wh_store16(my, WH_COMPONENT16(q, 1)); wh_store16(mz, WH_COMPONENT16(q, 2));
+        wh_store16(nx1, WH_COMPONENT16(q, 3));
+        wh_quads16(nb, q); wh_store16(ny1, WH_COMPONENT16(q, 0)); wh_store16(nz1, WH_COMPONENT16(q, 1)); wh_store16(ox, WH_COMPONENT16(q, 2));
+        wh_store16(oy, WH_COMPONENT16(q, 3));
+        wh_quads16(nc, q); wh_store16(oz, WH_COMPONENT16(q, 3));
+        wh_quads16(ta, q); wh_store16(u0, WH_COMPONENT16(q, 0)); wh_store16(v0, WH_COMPONENT16(q, 1)); wh_store16(u1, WH_COMPONENT16(q, 2));
+        wh_store16(v1, WH_COMPONENT16(q, 3));
+        wh_quads16(tb, q); wh_store16(u2, WH_COMPONENT16(q, 2)); wh_store16(v2, WH_COMPONENT16(q, 3));"""
+
+#: The raster G-buffer's barycentrics of a chunk of short runs (the surface pass that does
+#: not resolve), zero where the pixel sees no surface.
+_BARYCENTRICS_CPP = """for (int j = 0; j < n; ++j) {
+            const bool hit = tris[xs + j] >= 0;
+            const wp::vec2 w = bary[xs + j]; bu[j] = hit ? w[0] : 0.0f; bv[j] = hit ? w[1] : 0.0f;
+        }"""
+
+
 def _surface_span_cpp(resolve: bool) -> str:
     """The C++ of the surface row loop (above): without ``resolve`` over the hit record in
     the G-buffer; with it the raster frame's resolve too (``_resolved_surface_span``): (0)
@@ -866,24 +937,12 @@ for (; xs < x1; xs += CHUNK) {{
         const float* P = (const float*)corners;
         const float* UV = (const float*)uvs;
         const float* NN = (const float*)corner_normals;
-        {_corner_indices_cpp("tris[xs + j]", attributes=True)}
-        #pragma clang loop vectorize(enable)
-        for (int j = 0; j < n; ++j) {{
-            const int tri = tris[xs + j];
-            const bool hit = tri >= 0;
-            const int t2 = kt[j], n3 = kn[j];
-            ax[j] = hit ? P[ia[j]] : 0.0f; ay[j] = hit ? P[ia[j] + 1] : 0.0f; az[j] = hit ? P[ia[j] + 2] : 0.0f;
-            bx[j] = hit ? P[ib[j]] : 0.0f; by[j] = hit ? P[ib[j] + 1] : 0.0f; bz[j] = hit ? P[ib[j] + 2] : 0.0f;
-            cx[j] = hit ? P[ic[j]] : 0.0f; cy[j] = hit ? P[ic[j] + 1] : 0.0f; cz[j] = hit ? P[ic[j] + 2] : 0.0f;
-            const bool uv = hit && uv_wanted;
-            u0[j] = uv ? UV[t2] : 0.0f; v0[j] = uv ? UV[t2 + 1] : 0.0f;
-            u1[j] = uv ? UV[t2 + 2] : 0.0f; v1[j] = uv ? UV[t2 + 3] : 0.0f;
-            u2[j] = uv ? UV[t2 + 4] : 0.0f; v2[j] = uv ? UV[t2 + 5] : 0.0f;
-            mx[j] = hit ? NN[n3] : 0.0f; my[j] = hit ? NN[n3 + 1] : 0.0f; mz[j] = hit ? NN[n3 + 2] : 0.0f;
-            nx1[j] = hit ? NN[n3 + 3] : 0.0f; ny1[j] = hit ? NN[n3 + 4] : 0.0f; nz1[j] = hit ? NN[n3 + 5] : 0.0f;
-            ox[j] = hit ? NN[n3 + 6] : 0.0f; oy[j] = hit ? NN[n3 + 7] : 0.0f; oz[j] = hit ? NN[n3 + 8] : 0.0f;
-            {"" if resolve else "const wp::vec2 w = bary[xs + j]; bu[j] = hit ? w[0] : 0.0f; bv[j] = hit ? w[1] : 0.0f;"}
-        }}
+#if defined(__CUDA_ARCH__)
+{_GATHERED_CORNERS_CUDA_CPP}
+#else
+{_LOADED_CORNERS_CPP}
+#endif
+        {"" if resolve else _BARYCENTRICS_CPP}
     }} else {{
     for (int run = 0; run < n;) {{
         const int tri = tris[xs + run];

@@ -29,7 +29,8 @@ class ProjectedPoints:
     """The scene's points transformed once per frame: ``camera`` in camera space (x
     right, y up, z = view depth), ``outcodes`` (``POINTS_CPP``'s ``wh_outcode``: where
     each lies against the view frustum) and, in front of the near plane, ``screen`` (x, y
-    in pixels, view depth)."""
+    in pixels, view depth; a view of an allocation one point longer, as the coverage
+    pass's CPU loop loads a point's three floats as four, ``cover_batch``)."""
 
     camera: wp.array(dtype=wp.vec3)
     outcodes: wp.array(dtype=wp.int32)

@@ -26,7 +26,7 @@ from __future__ import annotations
 import warp as wp
 
 from ..core.camera import CameraGPU
-from ..core.native_rows import float_literal
+from ..core.native_rows import LAMBDA_HEADER_CPP, float_literal
 from ..core.scene_gpu import FLAG_CUTOUT, SceneGPU
 from .clipping import GUARD_PX, IN_FRONT_BIT, OUTSIDE_BITS, ProjectedPoints
 from .coverage import HALF_SUBPIXEL, MODE_DEPTH, NARROW_PX, SUBPIXEL, RasterTarget
@@ -40,6 +40,7 @@ _COVER_BATCH_CPP = f"""
 // (on CUDA every triangle goes the Warp path, whose key updates are atomic)
 return stop - first >= {BATCH_TRIANGLES} ? ~(uint64_t)0 : ((uint64_t)1 << (stop - first)) - 1;
 #else
+{LAMBDA_HEADER_CPP}
 constexpr int B = {BATCH_TRIANGLES};
 constexpr int64_t SUB = {int(SUBPIXEL)};
 constexpr int64_t HALF_SUB = {int(HALF_SUBPIXEL)};
@@ -58,18 +59,40 @@ int64_t ax[B], ay[B], bx[B], by[B], cx[B], cy[B], area[B];
 float za[B], zb[B], zc[B];
 int bx0[B], bx1[B], by0[B], by1[B];
 bool live[B], slow[B];
+// the corners, triangle by triangle (sixteen at a time; past the batch's end its last again):
+// the bits their outcodes share (``clipping.POINTS_CPP``), and each screen point one 16-byte
+// load (its fourth float the next point's, or past the last the points' spare one), whose
+// components the sixteen lanes' registers give up at once (``WH_COMPONENT16``: gathering
+// them across lanes took a cycle or more a lane, nine gathers)
+static_assert(B % 16 == 0, "whole groups of 16 lanes");
+int commons[B];
+float s0x[B], s0y[B], s0z[B], s1x[B], s1y[B], s1z[B], s2x[B], s2y[B], s2z[B];
+for (int g = 0; g < n; g += 16) {{
+    wh_float4 v0[16], v1[16], v2[16];
+    #pragma clang loop vectorize(disable)
+    for (int q = 0; q < 16; ++q) {{
+        const int t = first + wp::min(g + q, n - 1);
+        const int i0 = indices[3 * t], i1 = indices[3 * t + 1], i2 = indices[3 * t + 2];
+        commons[g + q] = outcodes[i0] & outcodes[i1] & outcodes[i2];
+        v0[q] = wh_load4((const float*)(screen + i0));
+        v1[q] = wh_load4((const float*)(screen + i1));
+        v2[q] = wh_load4((const float*)(screen + i2));
+    }}
+    wh_float16 q[4];
+    wh_quads16(v0, q); wh_store16(s0x + g, WH_COMPONENT16(q, 0)); wh_store16(s0y + g, WH_COMPONENT16(q, 1)); wh_store16(s0z + g, WH_COMPONENT16(q, 2));
+    wh_quads16(v1, q); wh_store16(s1x + g, WH_COMPONENT16(q, 0)); wh_store16(s1y + g, WH_COMPONENT16(q, 1)); wh_store16(s1z + g, WH_COMPONENT16(q, 2));
+    wh_quads16(v2, q); wh_store16(s2x + g, WH_COMPONENT16(q, 0)); wh_store16(s2y + g, WH_COMPONENT16(q, 1)); wh_store16(s2z + g, WH_COMPONENT16(q, 2));
+}}
 // the setup across the batch: the rejects, the guard band, the snap, the orientation, the box
 #pragma clang loop vectorize(enable)
 for (int j = 0; j < n; ++j) {{
-    const int t = first + j;
-    const int i0 = indices[3 * t], i1 = indices[3 * t + 1], i2 = indices[3 * t + 2];
-    // (the corners' outcodes, ``clipping.POINTS_CPP``: the trivial rejects where they share
-    // a bit beyond a plane, wholly in front of the near plane where they share that bit)
-    const int common = outcodes[i0] & outcodes[i1] & outcodes[i2];
+    // (the corners' outcodes: the trivial rejects where they share a bit beyond a plane,
+    // wholly in front of the near plane where they share that bit)
+    const int common = commons[j];
     const bool reject = (common & {int(OUTSIDE_BITS)}) != 0;
     const bool front = (common & {int(IN_FRONT_BIT)}) != 0;
     // (screen points exist only in front of the near plane: read every lane, used only there)
-    const wp::vec3 s0 = screen[i0], s1 = screen[i1], s2 = screen[i2];
+    const wp::vec3 s0(s0x[j], s0y[j], s0z[j]), s1(s1x[j], s1y[j], s1z[j]), s2(s2x[j], s2y[j], s2z[j]);
     auto inside = [&](const wp::vec3& s) {{
         return wp::abs(wp::sub(s[0], half_w)) <= guard && wp::abs(wp::sub(s[1], half_h)) <= guard;
     }};

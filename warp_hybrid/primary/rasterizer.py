@@ -117,7 +117,9 @@ class Rasterizer(PrimaryVisibility):
             self._points = ProjectedPoints()
             self._points.camera = wp.zeros(count, dtype=wp.vec3, device=self.launcher.device)
             self._points.outcodes = wp.zeros(count, dtype=wp.int32, device=self.launcher.device)
-            self._points.screen = wp.zeros(count, dtype=wp.vec3, device=self.launcher.device)
+            # (with a spare point after the last: the coverage pass loads a screen point's
+            # three floats as four, ``cover_batch``)
+            self._points.screen = wp.zeros(count + 1, dtype=wp.vec3, device=self.launcher.device)[:count]
         self.launcher.launch_groups(kernels.camera_points_kernel, count, [scene.gpu.points, camera, self._points])
         return self._points
 

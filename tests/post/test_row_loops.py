@@ -10,7 +10,7 @@ import warp as wp
 from fxaa_reference import code_luma
 
 from warp_hybrid.parallel import Launcher
-from warp_hybrid.post.aa import EDGE_THRESHOLD, EDGE_THRESHOLD_MIN, fxaa_edge_pixels
+from warp_hybrid.post.aa import EDGE_THRESHOLD, EDGE_THRESHOLD_MIN, fxaa_edge_pixels, luma_buffer
 from warp_hybrid.post.color import make_srgb8_encoder, srgb_thresholds
 from warp_hybrid.post.exposure import Exposure
 from warp_hybrid.post.kernels import TONEMAP_KERNELS
@@ -59,7 +59,9 @@ def test_tone_map_rows_match_numpy(device):
     with Launcher(device) as launcher:
         for x0, x1 in SPANS:
             ldr = wp.full((H, W, 3), 7, dtype=wp.uint8, device=device)
-            luma_out = wp.full((H, W), -1.0, dtype=float, device=device)
+            luma_out = luma_buffer(H, W, device)
+            spare = luma_out._ref  # (the rows with their spare columns)
+            spare.fill_(-1.0)
             inputs = [
                 wp.array(hdr, dtype=wp.vec3, device=device),
                 wp.array([exposure], dtype=Exposure, device=device),
@@ -76,6 +78,10 @@ def test_tone_map_rows_match_numpy(device):
             outside = np.ones(W, bool)
             outside[x0:x1] = False
             assert np.all(got[:, outside] == 7) and np.all(got_luma[:, outside] == -1.0), f"span {x0}-{x1}"
+            # the spare columns beside a row hold its edge pixels' luma where the span reaches them
+            beside = spare.numpy()
+            np.testing.assert_array_equal(beside[:, 0], luma[:, 0] if x0 == 0 else -1.0)
+            np.testing.assert_array_equal(beside[:, W + 1], luma[:, W - 1] if x1 == W else -1.0)
 
 
 @wp.kernel

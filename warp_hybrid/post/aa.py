@@ -53,6 +53,14 @@ FIRST_SEARCH_TAPS = 4
 #: bilinear tap, half a pixel past its full length (the 3x3 test and the final colour
 #: tap stay within 1).  A pixel's output changes only if its input changed this close.
 FXAA_REACH_PX = max(1, math.ceil(sum(SEARCH_STEP_PX) + 0.5))
+
+
+def luma_buffer(height: int, width: int, device: wp.context.Device | str) -> wp.array:
+    """The luma buffer the tone map writes and FXAA reads: (height, width) floats, a view of
+    rows two floats longer, a spare column on each side that the tone map keeps equal to
+    the row's first and last pixel (the edge-clamped luma), so the search reads a tap's two
+    columns as one 64-bit load (``fxaa_edge_span``; the columns must be contiguous)."""
+    return wp.zeros((height, width + 2), dtype=float, device=device)[:, 1 : width + 1]
 LUMA_WEIGHTS = (0.299, 0.587, 0.114)  # Rec. 601, as FXAA
 
 
@@ -187,13 +195,26 @@ auto code = [&](int x, int yy, int k) WH_INLINE -> float {{
     return wp::mul((float)*(const wp::uint8*)(codes + (ty * code_row + tx * code_col + k * code_channel)), INV_255);
 }};
 // bilinear luma and colour channel k at continuous pixel coordinates (pixel centres at i + 0.5)
+// (a tap's two columns of a row as one 64-bit load, ``luma_buffer``'s spare columns standing
+// for the clamped ones: the pair at x0 clamped to [-1, width - 1] holds what ``luma_at``
+// reads at x0 and x0 + 1; a loop across pixels gathers one 64-bit lane a pair)
+auto luma_pair = [&](const int x0, const int y, float& left, float& right) WH_INLINE {{
+    const int yy = wp::clamp(y, 0, (int)luma.shape[0] - 1);
+    const int xx = wp::clamp(x0, -1, (int)luma.shape[1] - 1);
+    unsigned long long bits;
+    __builtin_memcpy(&bits, luma_floats + (yy * luma_row + xx), sizeof(bits));
+    left = __builtin_bit_cast(float, (unsigned int)bits);
+    right = __builtin_bit_cast(float, (unsigned int)(bits >> 32));
+}};
 auto bilinear_luma = [&](float px, float py) WH_INLINE -> float {{
     const float bx = wp::sub(px, 0.5f), by = wp::sub(py, 0.5f);
     const float x0f = wp::floor(bx), y0f = wp::floor(by);
     const float fx = wp::sub(bx, x0f), fy = wp::sub(by, y0f);
     const int x0 = (int)x0f, y0 = (int)y0f;
-    return wh_lerp(wh_lerp(luma_at(x0, y0), luma_at(x0 + 1, y0), fx),
-                   wh_lerp(luma_at(x0, y0 + 1), luma_at(x0 + 1, y0 + 1), fx), fy);
+    float a00, a01, a10, a11;
+    luma_pair(x0, y0, a00, a01);
+    luma_pair(x0, y0 + 1, a10, a11);
+    return wh_lerp(wh_lerp(a00, a01, fx), wh_lerp(a10, a11, fx), fy);
 }};
 auto bilinear_code = [&](float px, float py, int k) WH_INLINE -> float {{
     const float bx = wp::sub(px, 0.5f), by = wp::sub(py, 0.5f);

@@ -156,8 +156,15 @@ def _tonemap_span_cpp(operator: str, with_luma: bool) -> str:
     of row ``y``, a chunk at a time, the curve on every channel (one flat loop over the
     chunk's floats, which the compiler vectorises), their 8-bit codes, the bytes, and (with
     ``with_luma``) the luma.  The arrays must be contiguous (``PostProcess`` checks)."""
-    luma_loop = ""
+    luma_loop = luma_edges = ""
     if with_luma:
+        # (the spare columns of ``aa.luma_buffer`` beside the row: its first and last luma)
+        luma_edges = f"""
+{{
+    float* luma_row = {row_cpp("luma", "y", "float", const=False)};
+    if (x0 == 0) luma_row[-1] = luma_row[0];
+    if (x1 == (int)luma.shape[1]) luma_row[x1] = luma_row[x1 - 1];
+}}"""
         luma_loop = f"""
     float* luma_out = {row_cpp("luma", "y", "float", const=False)} + xs;
     for (int j = 0; j < n / 3; ++j) {{
@@ -188,7 +195,7 @@ for (int xs = x0; xs < x1; xs += CHUNK) {{
         codes[i] = code;
     }}
     for (int i = 0; i < n; ++i) bytes[3 * xs + i] = (wp::uint8)codes[i];{luma_loop}
-}}
+}}{luma_edges}
 """
     )
 

@@ -22,7 +22,7 @@ from ..core.passes import FrameContext, MeteredRows, RenderPass
 from ..core.rows import NO_ROWS, RowSpan, span_clip, span_grow
 from ..parallel import FEW_BANDS_PER_THREAD, Launcher, kept
 from ..timing import StageTimer
-from .aa import FXAA_REACH_PX
+from .aa import FXAA_REACH_PX, luma_buffer
 from .color import make_srgb8_encoder
 from .exposure import Exposure
 from .kernels import (
@@ -81,7 +81,7 @@ class PostProcess(RenderPass):
             self._buffers = {
                 "ldr": wp.zeros((height, width, 3), dtype=wp.uint8, device=dev),
                 "smoothed": wp.zeros((height, width, 3), dtype=wp.uint8, device=dev),
-                "luma": wp.zeros((height, width), dtype=float, device=dev),
+                "luma": luma_buffer(height, width, dev),
                 "edges": wp.zeros((height, width), dtype=wp.int32, device=dev),
                 "row_sum": wp.zeros(height, dtype=wp.float64, device=dev),
                 "row_count": wp.zeros(height, dtype=wp.int32, device=dev),

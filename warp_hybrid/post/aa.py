@@ -61,6 +61,8 @@ def luma_buffer(height: int, width: int, device: wp.context.Device | str) -> wp.
     the row's first and last pixel (the edge-clamped luma), so the search reads a tap's two
     columns as one 64-bit load (``fxaa_edge_span``; the columns must be contiguous)."""
     return wp.zeros((height, width + 2), dtype=float, device=device)[:, 1 : width + 1]
+
+
 LUMA_WEIGHTS = (0.299, 0.587, 0.114)  # Rec. 601, as FXAA
 
 

@@ -82,6 +82,20 @@ auto wh_add_products = [&](const float a, const float s, const float b, const fl
 auto wh_lerp_contracted = [&](const float a, const float b, const float t) WH_INLINE -> float {
     return wh_add_products(a, wp::sub(1.0f, t), b, t);
 };
+// Two consecutive floats ``p[0], p[1]``: on the CPU as one 64-bit load (a loop across lanes
+// gathers one 64-bit lane for both, not two 32-bit ones), on CUDA one by one (``p`` need
+// not be 8-byte aligned).
+auto wh_load2 = [&](const float* p, float& first, float& second) WH_INLINE {
+#if defined(__CUDA_ARCH__)
+    first = p[0];
+    second = p[1];
+#else
+    unsigned long long bits;
+    __builtin_memcpy(&bits, p, sizeof(bits));
+    first = __builtin_bit_cast(float, (unsigned int)bits);
+    second = __builtin_bit_cast(float, (unsigned int)(bits >> 32));
+#endif
+};
 #if !defined(__CUDA_ARCH__)
 // Four floats as one vector register: a texel's channels blended at once, each as
 // ``wh_lerp_contracted`` blends a float (the same bits).

@@ -378,25 +378,18 @@ auto wh_cone_factor = [&](const auto& light, const bool has_cone, const float co
     const int v0 = wp::min((int)fv, size - 2);
     const float tr = wp::sub(fr, (float)r0);
     const float tv = wp::sub(fv, (float)v0);
-    // entry (r, v)'s two floats as one 64-bit load (by an int index: a loop across pixels
-    // gathers one 64-bit lane an entry, where a float at a time took two 32-bit lanes and a
-    // byte offset in size_t two gathers of 8), then one channel (0: A, 1: B) of it, and
-    // the bilinear blend of that channel
+    // each of the four entries' two floats (A, B) by one ``wh_load2`` (by an int index: a
+    // byte offset in size_t took two gathers of 8), then the bilinear blend of channel c
     const float* lut_floats = (const float*)lut.data;
     const int row_floats = lut.strides[0] / (int)sizeof(float), entry_floats = lut.strides[1] / (int)sizeof(float);
-    auto entry = [&](int r, int v) WH_INLINE -> unsigned long long {
-        unsigned long long bits;
-        __builtin_memcpy(&bits, lut_floats + (r * row_floats + v * entry_floats), sizeof(bits));
-        return bits;
-    };
-    const unsigned long long e00 = entry(r0, v0), e01 = entry(r0, v0 + 1);
-    const unsigned long long e10 = entry(r0 + 1, v0), e11 = entry(r0 + 1, v0 + 1);
-    auto at = [&](const unsigned long long e, int c) WH_INLINE -> float {
-        return __builtin_bit_cast(float, (unsigned int)(c == 0 ? e : e >> 32));
-    };
+    float e00[2], e01[2], e10[2], e11[2];
+    wh_load2(lut_floats + (r0 * row_floats + v0 * entry_floats), e00[0], e00[1]);
+    wh_load2(lut_floats + (r0 * row_floats + (v0 + 1) * entry_floats), e01[0], e01[1]);
+    wh_load2(lut_floats + ((r0 + 1) * row_floats + v0 * entry_floats), e10[0], e10[1]);
+    wh_load2(lut_floats + ((r0 + 1) * row_floats + (v0 + 1) * entry_floats), e11[0], e11[1]);
     auto blend = [&](int c) WH_INLINE -> float {
-        const float lower = wp::add(wp::mul(at(e00, c), wp::sub(1.0f, tv)), wp::mul(at(e01, c), tv));
-        const float upper = wp::add(wp::mul(at(e10, c), wp::sub(1.0f, tv)), wp::mul(at(e11, c), tv));
+        const float lower = wp::add(wp::mul(e00[c], wp::sub(1.0f, tv)), wp::mul(e01[c], tv));
+        const float upper = wp::add(wp::mul(e10[c], wp::sub(1.0f, tv)), wp::mul(e11[c], tv));
         return wp::add(wp::mul(lower, wp::sub(1.0f, tr)), wp::mul(upper, tr));
     };
     const float f90 = wh_fresnel_f90(f0);

@@ -203,10 +203,7 @@ auto code = [&](int x, int yy, int k) WH_INLINE -> float {{
 auto luma_pair = [&](const int x0, const int y, float& left, float& right) WH_INLINE {{
     const int yy = wp::clamp(y, 0, (int)luma.shape[0] - 1);
     const int xx = wp::clamp(x0, -1, (int)luma.shape[1] - 1);
-    unsigned long long bits;
-    __builtin_memcpy(&bits, luma_floats + (yy * luma_row + xx), sizeof(bits));
-    left = __builtin_bit_cast(float, (unsigned int)bits);
-    right = __builtin_bit_cast(float, (unsigned int)(bits >> 32));
+    wh_load2(luma_floats + (yy * luma_row + xx), left, right);
 }};
 auto bilinear_luma = [&](float px, float py) WH_INLINE -> float {{
     const float bx = wp::sub(px, 0.5f), by = wp::sub(py, 0.5f);

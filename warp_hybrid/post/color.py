@@ -74,15 +74,20 @@ def make_srgb8_encoder(device: wp.context.Device | str) -> Srgb8Encoder:
 
 
 #: C++ statements: the 8-bit code ``code`` (int) of linear float ``x`` from the encoder's
-#: cells ``cells`` (``const wp::vec2*``): see ``srgb_quantize``.  (The cell's two floats
-#: as one 64-bit load: a loop across values gathers one 64-bit lane a value, not two
+#: cells ``cells`` (``const wp::vec2*``): see ``srgb_quantize``.  (On the CPU the cell's two
+#: floats as one 64-bit load: a loop across values gathers one 64-bit lane a value, not two
 #: 32-bit ones.)
 SRGB_QUANTIZE_CPP = f"""
 const float xc = x > 0.0f ? (x < 1.0f ? x : 1.0f) : 0.0f;
+const wp::vec2* const cell_at = cells + (int)(xc * {float(SRGB_LUT_SIZE)!r}f);
+#if defined(__CUDA_ARCH__)
+const float cell_code = (*cell_at)[0], cell_threshold = (*cell_at)[1];
+#else
 unsigned long long cell;
-__builtin_memcpy(&cell, cells + (int)(xc * {float(SRGB_LUT_SIZE)!r}f), sizeof(cell));
+__builtin_memcpy(&cell, cell_at, sizeof(cell));
 const float cell_code = __builtin_bit_cast(float, (unsigned int)cell);
 const float cell_threshold = __builtin_bit_cast(float, (unsigned int)(cell >> 32));
+#endif
 const int code = (int)cell_code + (xc >= cell_threshold ? 1 : 0);
 """
 

@@ -16,6 +16,7 @@ import numpy as np
 import warp as wp
 
 from ..core.constants import LUMA_709
+from ..core.native_rows import LAMBDA_HEADER_CPP
 
 
 def srgb_encode(linear: np.ndarray) -> np.ndarray:
@@ -74,25 +75,18 @@ def make_srgb8_encoder(device: wp.context.Device | str) -> Srgb8Encoder:
 
 
 #: C++ statements: the 8-bit code ``code`` (int) of linear float ``x`` from the encoder's
-#: cells ``cells`` (``const wp::vec2*``): see ``srgb_quantize``.  (On the CPU the cell's two
-#: floats as one 64-bit load: a loop across values gathers one 64-bit lane a value, not two
-#: 32-bit ones.)
+#: cells ``cells`` (``const wp::vec2*``): see ``srgb_quantize``.  (After
+#: ``LAMBDA_HEADER_CPP``: the cell's two floats by ``wh_load2``, on the CPU one 64-bit load,
+#: which a loop across values gathers as one 64-bit lane a value, not two 32-bit ones.)
 SRGB_QUANTIZE_CPP = f"""
 const float xc = x > 0.0f ? (x < 1.0f ? x : 1.0f) : 0.0f;
-const wp::vec2* const cell_at = cells + (int)(xc * {float(SRGB_LUT_SIZE)!r}f);
-#if defined(__CUDA_ARCH__)
-const float cell_code = (*cell_at)[0], cell_threshold = (*cell_at)[1];
-#else
-unsigned long long cell;
-__builtin_memcpy(&cell, cell_at, sizeof(cell));
-const float cell_code = __builtin_bit_cast(float, (unsigned int)cell);
-const float cell_threshold = __builtin_bit_cast(float, (unsigned int)(cell >> 32));
-#endif
+float cell_code, cell_threshold;
+wh_load2((const float*)(cells + (int)(xc * {float(SRGB_LUT_SIZE)!r}f)), cell_code, cell_threshold);
 const int code = (int)cell_code + (xc >= cell_threshold ? 1 : 0);
 """
 
 
-@wp.func_native("const wp::vec2* cells = enc.cells.data;" + SRGB_QUANTIZE_CPP + "return code;")
+@wp.func_native(LAMBDA_HEADER_CPP + "const wp::vec2* cells = enc.cells.data;" + SRGB_QUANTIZE_CPP + "return code;")
 def srgb_quantize(x: float, enc: Srgb8Encoder) -> int:
     """The 8-bit sRGB code of linear ``x``, exactly ``round(255 * srgb_encode(x))``
     without a ``pow`` or a branch: clamp to [0, 1] (NaN -> 0), take the code at the

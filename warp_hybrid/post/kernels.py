@@ -175,6 +175,7 @@ def _tonemap_span_cpp(operator: str, with_luma: bool) -> str:
     }}"""
     return (
         CHUNK_CPP
+        + LAMBDA_HEADER_CPP
         + f"""
 const float* row = {row_cpp("color", "y", "float")};
 wp::uint8* bytes = {row_cpp("out", "y", "wp::uint8", const=False)};

@@ -206,6 +206,13 @@ auto wh_at = [&](const auto& a, const int i, const int j) WH_INLINE {
 """
 
 
+def spare_padded(count: int, dtype: type, device: wp.context.Device | str) -> wp.array:
+    """``count`` zeroed elements of ``dtype`` on ``device``, a view of an allocation one element
+    longer: the row loops load a vec3's three floats as four (``wh_load4``), the last
+    element's fourth from the spare one."""
+    return wp.zeros(count + 1, dtype=dtype, device=device)[:count]
+
+
 def float_literal(value: float) -> str:
     """A C++ float32 literal of ``value``: the float32 nearest the double, as Warp rounds its
     constants (``wp::float32(double)``), written exactly in hexadecimal (a decimal with an

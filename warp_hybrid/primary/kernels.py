@@ -798,7 +798,7 @@ _GATHERED_CORNERS_CUDA_CPP = f"""
 #: sixteen lanes picked out in registers into its lane array (``WH_COMPONENT16``): a
 #: gather across lanes took a cycle or more a lane, 27 of them a chunk.  (A point's fourth
 #: float is the next point's first, or past the last one the points' spare one,
-#: ``upload._spare_padded``.)
+#: ``native_rows.spare_padded``.)
 _LOADED_CORNERS_CPP = """
         static_assert(CHUNK == 16, "a chunk is one register of lanes");
         wh_float4 pa[16], pb[16], pc[16], na[16], nb[16], nc[16], ta[16], tb[16];

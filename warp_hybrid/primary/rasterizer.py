@@ -35,6 +35,7 @@ import warp as wp
 
 from ..core.camera import CameraGPU
 from ..core.gbuffer import GBuffer
+from ..core.native_rows import spare_padded
 from ..core.rows import RowSpan
 from ..parallel import CostBands, Launcher, band, band_count, kept
 from ..scene.device import DeviceScene
@@ -117,9 +118,9 @@ class Rasterizer(PrimaryVisibility):
             self._points = ProjectedPoints()
             self._points.camera = wp.zeros(count, dtype=wp.vec3, device=self.launcher.device)
             self._points.outcodes = wp.zeros(count, dtype=wp.int32, device=self.launcher.device)
-            # (with a spare point after the last: the coverage pass loads a screen point's
-            # three floats as four, ``cover_batch``)
-            self._points.screen = wp.zeros(count + 1, dtype=wp.vec3, device=self.launcher.device)[:count]
+            # (with a spare point after the last: the coverage pass loads a screen point as four
+            # floats, ``cover_batch``)
+            self._points.screen = spare_padded(count, wp.vec3, self.launcher.device)
         self.launcher.launch_groups(kernels.camera_points_kernel, count, [scene.gpu.points, camera, self._points])
         return self._points
 

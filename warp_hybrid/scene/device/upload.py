@@ -25,6 +25,7 @@ import numpy as np
 import warp as wp
 
 from ...core.features import SceneFeatures, analyse_features
+from ...core.native_rows import spare_padded
 from ...core.scene_gpu import (
     FLAG_BLENDED,
     FLAG_CUTOUT,
@@ -239,16 +240,6 @@ def _same_array(a: np.ndarray, b: np.ndarray) -> bool:
     return a is b or np.array_equal(a, b)
 
 
-def _spare_padded(values: np.ndarray, dtype: type, device: wp.context.Device) -> wp.array:
-    """``values`` on ``device`` as an array of ``dtype`` with one spare zero element after its
-    last, outside its shape (the CPU's row loops load a point's three floats as four,
-    ``wh_load4``, the last point's fourth from the spare)."""
-    padded = wp.zeros(len(values) + 1, dtype=dtype, device=device)
-    view = padded[: len(values)]
-    view.assign(values)
-    return view
-
-
 def _f32(a: np.ndarray, width: int) -> np.ndarray:
     return np.ascontiguousarray(a.reshape(-1, width), dtype=np.float32)
 
@@ -302,7 +293,10 @@ class DeviceScene:
             self._indirect_e = self._indirect_estimate(scene)
             self.features = self._features(scene)
             d = self.device
-            self.points = _spare_padded(_f32(scene.points, 3), wp.vec3, d)
+            # (with a spare point after the last: the surface loop loads a point as four floats)
+            points = _f32(scene.points, 3)
+            self.points = spare_padded(len(points), wp.vec3, d)
+            self.points.assign(points)
             self.indices = wp.array(np.ascontiguousarray(scene.indices.reshape(-1), np.int32), dtype=wp.int32, device=d)
             self.triangle_bound = triangle_bounds(self.points, self.indices)
             self.corner_normals = wp.array(_f32(scene.corner_normals, 3), dtype=wp.vec3, device=d)

@@ -376,9 +376,9 @@ for (int j = 0; j < n; ++j) {{
 }}"""
 
 
-#: A chunk whose runs of pixels on one triangle average under this many pixels gathers
-#: each pixel's corners (the resolve's step (2), the surface row loop's step (1)); the
-#: others load them once a run.
+#: A chunk whose runs of pixels on one triangle average under this many pixels reads each
+#: pixel's corners (the resolve's step (2), the surface row loop's step (1)); the others
+#: load them once a run.
 SHORT_RUN_PIXELS = 4
 
 # C++ the resolve's row loop and the resolving surface loop share (given ``keys``, the
@@ -688,10 +688,11 @@ _RESOLVED_HIT_CPP = f"""
 
 # The surface pass's row loop: a chunk of pixels at a time, each pixel's material and
 # whether the chunk samples a texture (where none of its materials does, its uvs, their
-# footprint and the surface's uv are left out: only texture lookups read them), (1) a
-# gather of each pixel's triangle corners, corner uvs and normals and its barycentrics
-# (none for the background): once for a run of pixels on one triangle, or lane by lane
-# across the chunk where its runs are short (``SHORT_RUN_PIXELS``), (2) the camera ray, the uv footprint
+# footprint and the surface's uv are left out: only texture lookups read them), (1) each
+# pixel's triangle corners, corner uvs and normals and its barycentrics (none for the
+# background): loaded once for a run of pixels on one triangle, or for each pixel where the
+# chunk's runs are short (``SHORT_RUN_PIXELS``: on the CPU 16-byte loads lane by lane, their
+# components picked out in registers; on CUDA by index), (2) the camera ray, the uv footprint
 # (``UV_FOOTPRINT_CPP``) and the surface's frame (``wh_surface_frame``) as plain arithmetic
 # over the chunk (the compiler vectorises it across pixels), (3) the materials
 # (``wh_material``, its textures filtered over the footprint): each material whose only
@@ -930,7 +931,7 @@ for (; xs < x1; xs += CHUNK) {{
     }}
     // (1) the corners: where the chunk's runs of pixels on one triangle are short (small
     // triangles, where a run's own loads and the branches ending it cost more than the
-    // loads they save), each pixel's own, gathered across the chunk; else once a run
+    // loads they save), each pixel's own (``_LOADED_CORNERS_CPP``); else once a run
     int runs = 0;
     for (int j = 0; j < n; ++j) runs += (j == 0 || tris[xs + j] != tris[xs + j - 1]) ? 1 : 0;
     if (runs * {SHORT_RUN_PIXELS} > n) {{

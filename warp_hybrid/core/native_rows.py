@@ -124,25 +124,32 @@ auto wh_bilinear4 = [&](const float* source, const int stride, const int i00, co
                     wh_lerp4(wh_load4(source + stride * i10), wh_load4(source + stride * i11), fx), fy);
 };
 // Sixteen lanes' four floats each (``v[0..15]``, one 16-byte load a lane) to lane arrays, in
-// registers: ``wh_quads16`` puts them together four lanes a vector, ``WH_COMPONENT16(q, c)``
-// picks component c (a constant) of all sixteen out of those, which ``wh_store16`` stores
-// at once (gathering a component across the lanes took a cycle or more a lane).
+// registers: the lanes' vectors put together four at a time, then component c of all
+// sixteen picked out of those and stored at once into ``out_c[0..15]`` (none where
+// ``out_c`` is a literal nullptr): gathering a component across the lanes took a cycle or
+// more a lane.
 typedef float wh_float8 __attribute__((ext_vector_type(8)));
 typedef float wh_float16 __attribute__((ext_vector_type(16)));
-auto wh_quads16 = [&](const wh_float4* v, wh_float16* q) WH_INLINE {
-    for (int i = 0; i < 4; ++i) {
-        const wh_float8 lo = __builtin_shufflevector(v[4 * i], v[4 * i + 1], 0, 1, 2, 3, 4, 5, 6, 7);
-        const wh_float8 hi = __builtin_shufflevector(v[4 * i + 2], v[4 * i + 3], 0, 1, 2, 3, 4, 5, 6, 7);
-        q[i] = __builtin_shufflevector(lo, hi, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
-    }
-};
 #define WH_COMPONENT16(q, c)                                                                                       \
     __builtin_shufflevector(__builtin_shufflevector((q)[0], (q)[1], c, c + 4, c + 8, c + 12, c + 16, c + 20, c + 24, \
                                                     c + 28, c, c + 4, c + 8, c + 12, c + 16, c + 20, c + 24, c + 28), \
                             __builtin_shufflevector((q)[2], (q)[3], c, c + 4, c + 8, c + 12, c + 16, c + 20, c + 24, \
                                                     c + 28, c, c + 4, c + 8, c + 12, c + 16, c + 20, c + 24, c + 28), \
                             0, 1, 2, 3, 4, 5, 6, 7, 16, 17, 18, 19, 20, 21, 22, 23)
-auto wh_store16 = [&](float* out, const wh_float16 lanes) WH_INLINE { __builtin_memcpy(out, &lanes, sizeof(lanes)); };
+auto wh_unpack16 = [&](const wh_float4* v, float* out_0, float* out_1, float* out_2, float* out_3) WH_INLINE {
+    wh_float16 q[4];
+    for (int i = 0; i < 4; ++i) {
+        const wh_float8 lo = __builtin_shufflevector(v[4 * i], v[4 * i + 1], 0, 1, 2, 3, 4, 5, 6, 7);
+        const wh_float8 hi = __builtin_shufflevector(v[4 * i + 2], v[4 * i + 3], 0, 1, 2, 3, 4, 5, 6, 7);
+        q[i] = __builtin_shufflevector(lo, hi, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+    }
+    auto store = [&](float* out, const wh_float16 lanes) WH_INLINE { __builtin_memcpy(out, &lanes, sizeof(lanes)); };
+    if (out_0 != nullptr) store(out_0, WH_COMPONENT16(q, 0));
+    if (out_1 != nullptr) store(out_1, WH_COMPONENT16(q, 1));
+    if (out_2 != nullptr) store(out_2, WH_COMPONENT16(q, 2));
+    if (out_3 != nullptr) store(out_3, WH_COMPONENT16(q, 3));
+};
+#undef WH_COMPONENT16
 #endif
 // ``wp::normalize``'s arithmetic (a zero vector stays zero).
 auto wh_normalize = [&](const wp::vec3& a) WH_INLINE -> wp::vec3 {

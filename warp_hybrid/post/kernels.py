@@ -155,7 +155,9 @@ def _tonemap_span_cpp(operator: str, with_luma: bool) -> str:
     """The C++ body of ``_make_tonemap_kernel``'s span function: for pixels ``x0 <= x < x1``
     of row ``y``, a chunk at a time, the curve on every channel (one flat loop over the
     chunk's floats, which the compiler vectorises), their 8-bit codes, the bytes, and (with
-    ``with_luma``) the luma.  The arrays must be contiguous (``PostProcess`` checks)."""
+    ``with_luma``) the luma, and beside each row's first and last pixel the spare columns of
+    ``aa.luma_buffer``.  The colour and the 8-bit image must be contiguous (``PostProcess``
+    checks the colour and allocates the others); the luma is ``aa.luma_buffer``'s view."""
     luma_loop = luma_edges = ""
     if with_luma:
         # (the spare columns of ``aa.luma_buffer`` beside the row: its first and last luma)

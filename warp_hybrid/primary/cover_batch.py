@@ -62,7 +62,7 @@ bool live[B], slow[B];
 // the corners, triangle by triangle (sixteen at a time; past the batch's end its last again):
 // the bits their outcodes share (``clipping.POINTS_CPP``), and each screen point one 16-byte
 // load (its fourth float the next point's, or past the last the points' spare one), whose
-// components the sixteen lanes' registers give up at once (``WH_COMPONENT16``: gathering
+// components the sixteen lanes' registers give up at once (``wh_unpack16``: gathering
 // them across lanes took a cycle or more a lane, nine gathers)
 static_assert(B % 16 == 0, "whole groups of 16 lanes");
 int commons[B];
@@ -78,10 +78,9 @@ for (int g = 0; g < n; g += 16) {{
         v1[q] = wh_load4((const float*)(screen + i1));
         v2[q] = wh_load4((const float*)(screen + i2));
     }}
-    wh_float16 q[4];
-    wh_quads16(v0, q); wh_store16(s0x + g, WH_COMPONENT16(q, 0)); wh_store16(s0y + g, WH_COMPONENT16(q, 1)); wh_store16(s0z + g, WH_COMPONENT16(q, 2));
-    wh_quads16(v1, q); wh_store16(s1x + g, WH_COMPONENT16(q, 0)); wh_store16(s1y + g, WH_COMPONENT16(q, 1)); wh_store16(s1z + g, WH_COMPONENT16(q, 2));
-    wh_quads16(v2, q); wh_store16(s2x + g, WH_COMPONENT16(q, 0)); wh_store16(s2y + g, WH_COMPONENT16(q, 1)); wh_store16(s2z + g, WH_COMPONENT16(q, 2));
+    wh_unpack16(v0, s0x + g, s0y + g, s0z + g, nullptr);
+    wh_unpack16(v1, s1x + g, s1y + g, s1z + g, nullptr);
+    wh_unpack16(v2, s2x + g, s2y + g, s2z + g, nullptr);
 }}
 // the setup across the batch: the rejects, the guard band, the snap, the orientation, the box
 #pragma clang loop vectorize(enable)

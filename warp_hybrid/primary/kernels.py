@@ -711,8 +711,8 @@ _RESOLVED_HIT_CPP = f"""
 #: only the material's lanes (the others' values are dropped), each texel one 16-byte load
 #: and its channels blended at once (``wh_bilinear4``; a gather across lanes, three a
 #: texel, took a cycle or more a float), the coarse level only where it is blended in; on
-#: CUDA channel by channel.  ``wh_bilinear_repeat_channel``'s and ``wh_mip_blend``'s
-#: operations, then the binding's scale and bias: the same bits.
+#: CUDA channel by channel (``wh_footprint_channel``).  ``wh_bilinear_repeat_channel``'s
+#: and ``wh_mip_blend``'s operations, then the binding's scale and bias: the same bits.
 _REPEAT_TAPS_CPP = """
                 int a00[CHUNK], a01[CHUNK], a10[CHUNK], a11[CHUNK], b00[CHUNK], b01[CHUNK], b10[CHUNK], b11[CHUNK];
                 float ax[CHUNK], ay[CHUNK], bx[CHUNK], by[CHUNK];
@@ -730,17 +730,13 @@ _REPEAT_TAPS_CPP = """
                                                            b11[j], bx[j], by[j]);
                 }
 #if defined(__CUDA_ARCH__)
-                const float* flat = (const float*)scene.texels.data;
+                const wp::vec4* texels = scene.texels.data;
                 for (int j = 0; j < n; ++j) {
-                    auto tap = [&](const int i00, const int i01, const int i10, const int i11, const float wx1,
-                                   const float wy1, const bool finite, const int k) WH_INLINE -> float {
-                        const float top = wh_lerp(flat[4 * i00 + k], flat[4 * i01 + k], wx1);
-                        const float bottom = wh_lerp(flat[4 * i10 + k], flat[4 * i11 + k], wx1);
-                        return finite ? wh_lerp(top, bottom, wy1) : 0.0f;
-                    };
                     auto channel = [&](int k) WH_INLINE -> float {
-                        const float a = tap(a00[j], a01[j], a10[j], a11[j], ax[j], ay[j], fine_finite[j], k);
-                        const float b = tap(b00[j], b01[j], b10[j], b11[j], bx[j], by[j], coarse_finite[j], k);
+                        const float a = wh_footprint_channel(texels, a00[j], a01[j], a10[j], a11[j], ax[j], ay[j],
+                                                             fine_finite[j], k);
+                        const float b = wh_footprint_channel(texels, b00[j], b01[j], b10[j], b11[j], bx[j], by[j],
+                                                             coarse_finite[j], k);
                         return wp::add(wp::mul(wh_mip_blend(a, b, frac[j]), t.scale[k]), t.bias[k]);
                     };
                     dr[j] = channel(0); dg[j] = channel(1); db[j] = channel(2);
@@ -796,7 +792,7 @@ _GATHERED_CORNERS_CUDA_CPP = f"""
 #: The same on the CPU: lane by lane the loads as 16-byte vectors (a corner's point, its
 #: three corner normals' nine floats as three overlapping vectors, its uvs as two), zero
 #: where the pixel sees no surface (and past the chunk's end), then each component of the
-#: sixteen lanes picked out in registers into its lane array (``WH_COMPONENT16``): a
+#: sixteen lanes picked out in registers into its lane array (``wh_unpack16``): a
 #: gather across lanes took a cycle or more a lane, 27 of them a chunk.  (A point's fourth
 #: float is the next point's first, or past the last one the points' spare one,
 #: ``native_rows.spare_padded``.)
@@ -822,18 +818,14 @@ _LOADED_CORNERS_CPP = """
                 tb[j] = wh_load4(UV + 2 * k + 2);
             }
         }
-        wh_float16 q[4];
-        wh_quads16(pa, q); wh_store16(ax, WH_COMPONENT16(q, 0)); wh_store16(ay, WH_COMPONENT16(q, 1)); wh_store16(az, WH_COMPONENT16(q, 2));
-        wh_quads16(pb, q); wh_store16(bx, WH_COMPONENT16(q, 0)); wh_store16(by, WH_COMPONENT16(q, 1)); wh_store16(bz, WH_COMPONENT16(q, 2));
-        wh_quads16(pc, q); wh_store16(cx, WH_COMPONENT16(q, 0)); wh_store16(cy, WH_COMPONENT16(q, 1)); wh_store16(cz, WH_COMPONENT16(q, 2));
-        wh_quads16(na, q); wh_store16(mx, WH_COMPONENT16(q, 0)); wh_store16(my, WH_COMPONENT16(q, 1)); wh_store16(mz, WH_COMPONENT16(q, 2));
-        wh_store16(nx1, WH_COMPONENT16(q, 3));
-        wh_quads16(nb, q); wh_store16(ny1, WH_COMPONENT16(q, 0)); wh_store16(nz1, WH_COMPONENT16(q, 1)); wh_store16(ox, WH_COMPONENT16(q, 2));
-        wh_store16(oy, WH_COMPONENT16(q, 3));
-        wh_quads16(nc, q); wh_store16(oz, WH_COMPONENT16(q, 3));
-        wh_quads16(ta, q); wh_store16(u0, WH_COMPONENT16(q, 0)); wh_store16(v0, WH_COMPONENT16(q, 1)); wh_store16(u1, WH_COMPONENT16(q, 2));
-        wh_store16(v1, WH_COMPONENT16(q, 3));
-        wh_quads16(tb, q); wh_store16(u2, WH_COMPONENT16(q, 2)); wh_store16(v2, WH_COMPONENT16(q, 3));"""
+        wh_unpack16(pa, ax, ay, az, nullptr);
+        wh_unpack16(pb, bx, by, bz, nullptr);
+        wh_unpack16(pc, cx, cy, cz, nullptr);
+        wh_unpack16(na, mx, my, mz, nx1);
+        wh_unpack16(nb, ny1, nz1, ox, oy);
+        wh_unpack16(nc, nullptr, nullptr, nullptr, oz);
+        wh_unpack16(ta, u0, v0, u1, v1);
+        wh_unpack16(tb, nullptr, nullptr, u2, v2);"""
 
 #: The raster G-buffer's barycentrics of a chunk of short runs (the surface pass that does
 #: not resolve), zero where the pixel sees no surface.

@@ -136,20 +136,26 @@ auto wh_repeat_footprint = [&](int offset, int width, int height, float u, float
     i11 = row1 + c1;
     return finite;
 };
-// Channel k of the bilinear lookup in the width x height level at offset, repeating in both
-// axes (``wh_repeat_footprint``).  One channel at a time, so a loop over pixels vectorises
-// it (a non-finite point taps texel 0 and reads black).
-auto wh_bilinear_repeat_channel = [&](const wp::vec4* texels, int offset, int width, int height, float u, float v,
-                                      int k) WH_INLINE -> float {
-    int i00, i01, i10, i11;
-    float wx1, wy1;
-    const bool finite = wh_repeat_footprint(offset, width, height, u, v, i00, i01, i10, i11, wx1, wy1);
+// Channel k of a footprint's (``wh_repeat_footprint``'s) bilinear value in the texel pool:
+// black where it is not finite.
+auto wh_footprint_channel = [&](const wp::vec4* texels, int i00, int i01, int i10, int i11, float wx1, float wy1,
+                                bool finite, int k) WH_INLINE -> float {
     // (each texel's float by an int index into the texel pool, which a loop across pixels
     // gathers in 16 lanes; a pointer per lane took two gathers of 8: ``MAX_TEXEL_FLOATS``)
     const float* flat = (const float*)texels;
     const float top = wh_lerp(flat[4 * i00 + k], flat[4 * i01 + k], wx1);
     const float bottom = wh_lerp(flat[4 * i10 + k], flat[4 * i11 + k], wx1);
     return finite ? wh_lerp(top, bottom, wy1) : 0.0f;
+};
+// Channel k of the bilinear lookup in the width x height level at offset, repeating in both
+// axes.  One channel at a time, so a loop over pixels vectorises it (a non-finite point
+// taps texel 0 and reads black).
+auto wh_bilinear_repeat_channel = [&](const wp::vec4* texels, int offset, int width, int height, float u, float v,
+                                      int k) WH_INLINE -> float {
+    int i00, i01, i10, i11;
+    float wx1, wy1;
+    const bool finite = wh_repeat_footprint(offset, width, height, u, v, i00, i01, i10, i11, wx1, wy1);
+    return wh_footprint_channel(texels, i00, i01, i10, i11, wx1, wy1, finite, k);
 };
 // All four channels.
 auto wh_bilinear_repeat = [&](const wp::vec4* texels, int offset, int width, int height, float u,

@@ -1,6 +1,7 @@
 """Native band threads: every band of a pass runs once, on whichever thread takes it, with
 its own dimension and trailing integers; helper threads take part at once, after they
-slept and after a nap; closing stops them."""
+slept and after a nap; a pass posted without waiting runs while the caller goes on and
+is done before the next; closing stops them."""
 
 from __future__ import annotations
 
@@ -52,6 +53,33 @@ def _rendezvous(flags: wp.array(dtype=wp.int32), met: wp.array(dtype=wp.int32), 
     """Raise this band's flag, then wait (a few seconds at most) for the other band's:
     ``met[me]`` is 1 when both bands ran at the same time."""
     met[me] = _meet(flags, me, 1 - me)
+
+
+@wp.func_native(
+    """
+volatile int* f = (volatile int*)flag.data;
+for (long long i = 0; i < 4000000000LL; ++i) {
+    if (f[0] != 0) return 1;
+}
+return 0;
+"""
+)
+def _await_flag(flag: wp.array(dtype=wp.int32)) -> int: ...
+
+
+@wp.kernel
+def _after_flag(flag: wp.array(dtype=wp.int32), seen: wp.array(dtype=wp.int32), band: int):
+    """Wait (a few seconds at most) until the host raises ``flag``: ``seen[band]`` is 1
+    when it did while this band ran."""
+    seen[band] = _await_flag(flag)
+
+
+@wp.kernel
+def _double_rows(out: wp.array2d(dtype=wp.int32), row0: int, row_step: int, cols: int):
+    r, c = wp.tid()
+    y = row0 + r * row_step
+    for x in range(c * cols, wp.min(c * cols + cols, out.shape[1])):
+        out[y, x] = 2 * out[y, x]
 
 
 @wp.kernel
@@ -153,6 +181,54 @@ def test_a_wake_up_call_has_sleeping_helpers_spin_until_the_next_pass() -> None:
         met, slots = _meet_in_one_pass(pool)
         np.testing.assert_array_equal(met, [1, 1])
         assert len(set(slots)) == 2
+
+
+def test_a_pass_posted_without_waiting_runs_while_the_caller_goes_on() -> None:
+    """Posted without waiting, a pass's band waits for a flag the caller raises only after
+    ``run`` returned (had ``run`` waited, the band would have given up first): it is in
+    flight until ``join``, which waits for it (the seconds it waited back) and leaves its
+    band timed."""
+    flag = wp.zeros(1, dtype=wp.int32, device="cpu")
+    seen = wp.zeros(1, dtype=wp.int32, device="cpu")
+    wp.load_module(_after_flag.module, device="cpu")
+    table = np.zeros((1, BAND_COLUMNS), dtype=np.int64)
+    table[0, :3] = (1, 1, 0)
+    with BandPool(wp.get_device("cpu"), 2) as pool:
+        assert pool.join() == 0.0 and not pool.in_flight
+        assert pool.run([_blocks(_after_flag, [flag, seen], 1, 2)], table, timed=True, wait=False) == 1
+        assert pool.in_flight
+        flag.numpy()[0] = 1
+        assert pool.join() >= 0.0
+        assert not pool.in_flight
+        assert seen.numpy()[0] == 1
+        assert table[0, COL_WALL_NS] > 0
+
+
+@pytest.mark.parametrize("threads", [2, 3])
+def test_the_next_pass_starts_after_the_one_in_flight(threads: int) -> None:
+    """A pass that doubles what the pass before it, posted without waiting, wrote sees
+    all of it; so does the pass after a close (closing finishes the pass in flight)."""
+    height, width = 97, 5
+    out = wp.zeros((height, width), dtype=wp.int32, device="cpu")
+    wp.load_module(_mark_rows.module, device="cpu")
+    spans = [(4 * k, 4) for k in range(24)] + [(96, 1)]
+    double = np.zeros((len(spans), BAND_COLUMNS), dtype=np.int64)
+    double[:, :5] = _bands(spans, 0, width)[:, :5]
+    pool = BandPool(wp.get_device("cpu"), threads)
+    for _ in range(3):
+        pool.run([_blocks(_mark_rows, [out, 1], 3, threads)], _bands(spans, 1, width), wait=False)
+        pool.run([_blocks(_double_rows, [out], 3, threads)], double)
+    pool.run([_blocks(_mark_rows, [out, 1], 3, threads)], _bands(spans, 1, width), wait=False)
+    pool.close()
+    np.testing.assert_array_equal(out.numpy(), np.full((height, width), 15, np.int32))  # ((1*2+1)*2+1)*2+1
+
+
+def test_a_pass_with_a_deadline_is_always_waited_for() -> None:
+    with BandPool(wp.get_device("cpu"), 2) as pool:
+        out = wp.zeros((1, 1), dtype=wp.int32, device="cpu")
+        wp.load_module(_mark_rows.module, device="cpu")
+        with pytest.raises(ValueError, match="deadline"):
+            pool.run([_blocks(_mark_rows, [out, 1], 3, 2)], _bands([(0, 1)], 1, 1), deadline_ns=0, wait=False)
 
 
 def test_closing_stops_the_helpers() -> None:

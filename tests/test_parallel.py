@@ -684,3 +684,67 @@ def test_guided_bands_of_a_frame() -> None:
     """480 rows on two threads: a quarter of the rows first, four-row bands at the end."""
     sizes = [n for _, n in guided_bands(480, 2, 4)]
     assert sizes == [120, 90, 68, 51, 38, 29, 21, 16, 12, 9, 7, 5, 4, 4, 4, 2]
+
+
+@wp.kernel
+def _double_items(out: wp.array(dtype=wp.int32), start: int, step: int):
+    i = start + wp.tid() * step
+    out[i] = 2 * out[i]
+
+
+def test_overlapping_passes_run_on_past_their_call_and_in_order(band_threads: str) -> None:
+    """Within ``overlapping`` a pass runs on past its call on the native band threads (in
+    flight until the next call joins it), and every pass still sees all of the one before;
+    the block's end joins the last; ``paused`` runs a pass to its end; the stages add up."""
+    count = 20000
+    out = wp.zeros(count, dtype=wp.int32, device="cpu")
+    timer = StageTimer()
+    native = band_threads == "native"
+    with Launcher("cpu", 2) as launcher:
+        with launcher.overlapping(timer):
+            with timer.stage("mark"):
+                launcher.launch_items(_count_items, count, [out])
+                assert launcher.in_flight == native
+            with timer.stage("double"):
+                launcher.launch_items(_double_items, count, [out])
+                launcher.launch_items(_count_items, count, [out])
+            with launcher.paused():
+                launcher.launch_items(_double_items, count, [out])
+                assert not launcher.in_flight
+            launcher.launch_items(_count_items, count, [out])
+        assert not launcher.in_flight
+    np.testing.assert_array_equal(out.numpy(), np.full(count, 7, np.int32))  # ((1*2+1)*2)+1
+    assert set(timer.stages_ms) == {"mark", "double"} and min(timer.stages_ms.values()) >= 0.0
+
+
+def test_an_injected_clock_keeps_every_pass_waited_for() -> None:
+    """The waits a pass in flight costs are charged on the timer's clock, so a timer on
+    an injected clock (or with a device sync) keeps every pass waited for."""
+    if not band_pool.layout_matches():
+        pytest.skip("no native band threads on this platform")
+    out = wp.zeros(1000, dtype=wp.int32, device="cpu")
+    with Launcher("cpu", 2) as launcher:
+        for timer in (StageTimer(clock=lambda: 0.0), StageTimer(sync=lambda: None)):
+            with launcher.overlapping(timer):
+                launcher.launch_items(_count_items, 1000, [out])
+                assert not launcher.in_flight
+    np.testing.assert_array_equal(out.numpy(), np.full(1000, 2, np.int32))
+
+
+def test_measured_costs_come_once_the_pass_is_done(band_threads: str) -> None:
+    """``launch_bands``'s ``measured`` gets each band's thread CPU seconds: at once where
+    the pass is waited for, at its join where it runs on (``overlapping``)."""
+    count = 6000
+    out = wp.zeros(count, dtype=wp.int32, device="cpu")
+    spans = [(0, 1000), (1000, 0), (1000, 5000)]
+    got: list[list[float]] = []
+    with Launcher("cpu", 2) as launcher:
+        launcher.launch_bands(_count_items, [out], [(n, (first, 1)) for first, n in spans], measured=got.append)
+        assert len(got) == 1
+        with launcher.overlapping(StageTimer()):
+            launcher.launch_bands(_count_items, [out], [(n, (first, 1)) for first, n in spans], measured=got.append)
+            assert len(got) == (1 if band_threads == "native" else 2)
+        assert len(got) == 2
+    np.testing.assert_array_equal(out.numpy(), np.full(count, 2, np.int32))
+    for costs in got:
+        assert len(costs) == len(spans) and min(costs) >= 0.0 and costs[2] > 0.0

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import dataclasses
 
@@ -9,7 +10,9 @@ import numpy as np
 import pytest
 import warp as wp
 
+from warp_hybrid.band_pool import BandPool, layout_matches
 from warp_hybrid.errors import RenderSettingsError, SceneError
+from warp_hybrid.parallel import Launcher
 from warp_hybrid.post.postprocess import PostProcess
 from warp_hybrid.renderer import Renderer, RenderSettings
 from warp_hybrid.scene.authoring.builders import look_at_camera, make_scene, quad, uv_sphere
@@ -181,6 +184,41 @@ def test_automatic_exposure_meters_the_raster_layer_as_drawn(device: str, mode: 
         post.auto_exposure(r.buffers.raster_color, r.buffers.gbuffer.triangle_id)
         assert frame.stats["exposure_ev"] != 0.0
         assert frame.stats["exposure_ev"] == post.last_exposure_ev
+
+
+@pytest.mark.parametrize("blended", [False, True])
+@pytest.mark.parametrize("mode", ["raster", "hybrid"])
+def test_passes_running_on_past_their_call_draw_the_frame_that_waits_for_each(
+    device: str, mode: str, blended: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A frame whose passes run on while the next pass's Python prepares
+    (``Launcher.overlapping``) is the frame that waits for every pass, bit for bit (image,
+    colour, visibility, AOVs, EV; an alpha-blended sphere's second layer too), and its
+    stages, the waits charged to the passes waited for, are each >= 0."""
+    scene = sphere_scene()
+    if blended:
+        grey = dataclasses.replace(scene.materials[0], opacity=0.4, alpha_blended=True)
+        scene = dataclasses.replace(scene, materials=[grey, *scene.materials[1:]])
+    posted = []  # the passes posted without waiting for them
+    run = BandPool.run
+    monkeypatch.setattr(
+        BandPool, "run", lambda pool, *a, wait=True, **k: posted.append(wait) or run(pool, *a, wait=wait, **k)
+    )
+    frames = {}
+    for overlap in (True, False):
+        if not overlap:
+            monkeypatch.setattr(Launcher, "overlapping", lambda self, timer: contextlib.nullcontext())
+        with Renderer(scene, RenderSettings(width=W, height=H, device=device, mode=mode, threads=2)) as r:
+            frames[overlap] = [r.render(scene.cameras[0]) for _ in range(2)]
+        if overlap and wp.get_device(device).is_cpu and layout_matches():
+            assert posted.count(False) >= 10  # (the raster passes, the exposure, the post)
+    for ran_on, waited in zip(frames[True], frames[False], strict=True):
+        np.testing.assert_array_equal(ran_on.image, waited.image)
+        for name, aov in waited.aovs().items():
+            np.testing.assert_array_equal(ran_on.aovs()[name], aov, err_msg=name)
+        assert ran_on.stats["exposure_ev"] == waited.stats["exposure_ev"] != 0.0
+        assert min(ran_on.stats["stages_ms"].values()) >= 0.0
+        assert set(ran_on.stats["stages_ms"]) == set(waited.stats["stages_ms"])
 
 
 def test_a_camera_changed_in_place_is_drawn_and_checked_again(device: str) -> None:

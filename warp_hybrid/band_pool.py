@@ -11,7 +11,9 @@ and takes bands as they are posted, spinning for a short while after the last on
 (``SPIN_NS_DEFAULT``), then sleeping on a pthread condition variable (at once after
 ``BandPool.nap``) until a pass is posted or ``BandPool.wake`` calls them to spin
 again.  The caller posts a pass (``BandPool.run``: one more native call with the GIL
-released), takes bands itself and returns once every band taken is done.
+released), takes bands itself and returns once every band taken is done; or, posting
+without waiting, returns at once and takes part later (``BandPool.join``, or its next
+pass), the helpers working on the pass meanwhile.
 
 The board (an int64 Warp array) holds one pass at a time:
 
@@ -243,6 +245,21 @@ for (int spins = 0;; ++spins) {{
 """
 )
 
+# The caller's part of a pass, after ``_post`` wrote its fields: post it (a new pass
+# number, the bands, the sleepers woken), then, with ``join``, take bands until none is
+# left and wait for the helpers' (``_JOIN_CPP``).  Without it the caller returns at once
+# and the helpers run the pass while the caller does other work (``BandPool.run`` with
+# ``wait=False``) until it joins.
+_JOIN_TAIL_CPP = f"""
+while (take(0)) {{}}
+// no band is left to take or to refuse: the ticket's count is the bands taken
+const long long taken = (long long)(((unsigned long long)load({TICKET}) >> {BAND_BITS}) & mask);
+while (load({DONE}) < taken) WH_PAUSE();
+b[{RAN}] = taken;
+return 0;
+#endif
+"""
+
 _RUN_CPP = (
     _BOARD_CPP
     + f"""
@@ -259,15 +276,14 @@ if (load({SLEEPERS}) > 0) {{
     ((PthreadFn)b[{BROADCAST_FN}])((void*)b[{COND}]);
     ((PthreadFn)b[{UNLOCK_FN}])((void*)b[{MUTEX}]);
 }}
-while (take(0)) {{}}
-// no band is left to take or to refuse: the ticket's count is the bands taken
-const long long taken = (long long)(((unsigned long long)load({TICKET}) >> {BAND_BITS}) & mask);
-while (load({DONE}) < taken) WH_PAUSE();
-b[{RAN}] = taken;
-return 0;
-#endif
+if (join == 0) return 0;
 """
+    + _JOIN_TAIL_CPP
 )
+
+# The caller joins the pass it posted without waiting: takes the bands left, waits for
+# the helpers' and writes ``RAN``.
+_JOIN_CPP = _BOARD_CPP + _JOIN_TAIL_CPP
 
 
 def _wake_cpp(slot: int) -> str:
@@ -293,7 +309,11 @@ def _worker_loop(board: wp.array(dtype=wp.int64), slot: int) -> int: ...
 
 
 @wp.func_native(_RUN_CPP)
-def _run_pass(board: wp.array(dtype=wp.int64), bands: int) -> int: ...
+def _run_pass(board: wp.array(dtype=wp.int64), bands: int, join: int) -> int: ...
+
+
+@wp.func_native(_JOIN_CPP)
+def _join_pass(board: wp.array(dtype=wp.int64)) -> int: ...
 
 
 @wp.func_native(_wake_cpp(QUIT))
@@ -310,8 +330,13 @@ def _worker_kernel(board: wp.array(dtype=wp.int64), slot: int):
 
 
 @wp.kernel
-def _run_kernel(board: wp.array(dtype=wp.int64), bands: int):
-    _run_pass(board, bands)
+def _run_kernel(board: wp.array(dtype=wp.int64), bands: int, join: int):
+    _run_pass(board, bands, join)
+
+
+@wp.kernel
+def _join_kernel(board: wp.array(dtype=wp.int64)):
+    _join_pass(board)
 
 
 @wp.kernel
@@ -511,7 +536,11 @@ class BandPool:
         self._host[SPIN_NS] = spin_ns
         self._host[CLOCK_WALL] = time.CLOCK_MONOTONIC
         self._host[CLOCK_CPU] = time.CLOCK_THREAD_CPUTIME_ID
-        self._run = DirectLaunch(_run_kernel, device, [self._board], tail=1)
+        self._run = DirectLaunch(_run_kernel, device, [self._board], tail=2)
+        self._join = DirectLaunch(_join_kernel, device, [self._board])
+        #: The pass posted without waiting (its argument blocks and band table, held until
+        #: it is joined), or None.
+        self._in_flight: tuple[Sequence[Sequence[PackedKernel]], np.ndarray] | None = None
         run_quit = wp.launch(_quit_kernel, dim=1, inputs=[self._board], device=device, record_cmd=True)
         self._wake = DirectLaunch(_wake_kernel, device, [self._board])
         helpers = [
@@ -529,7 +558,9 @@ class BandPool:
         self._stop = weakref.finalize(self, _stop, run_quit, helpers, (self._board, self._pthreads))
 
     def close(self) -> None:
-        """Stop the helper threads (idempotent)."""
+        """Finish the pass in flight, if any, and stop the helper threads (idempotent)."""
+        if self._stop.alive:
+            self.join()
         self._stop()
 
     def __enter__(self) -> BandPool:
@@ -564,9 +595,15 @@ class BandPool:
         bands: np.ndarray,
         timed: bool = False,
         deadline_ns: int | None = None,
+        wait: bool = True,
     ) -> int:
         """Run one pass and return how many of its bands ran (all, or those before the first
-        refused by the deadline).  Band k runs each stage s in order: ``forward`` of stage
+        refused by the deadline), after the pass in flight, if any, is done (``join``).
+        Without ``wait`` (a pass with no deadline) only post it and return its band count:
+        the helpers run it while the caller goes on, and ``join`` (or the next ``run``)
+        takes part in what is left and waits for it; ``stages`` and ``bands`` are held
+        until then, and nothing the pass reads or writes (its band times included) may be
+        touched before.  Band k runs each stage s in order: ``forward`` of stage
         s's kernel with the thread's argument block ``stages[s][slot]`` (one per thread),
         its trailing integers set from ``bands[k, s * STAGE_COLUMNS + 2:][:tail]``, over
         launch dimension ``bands[k, s * STAGE_COLUMNS:][:2]``.  ``bands`` is a C-contiguous
@@ -582,13 +619,47 @@ class BandPool:
             raise ValueError(f"{count} bands of {len(stages)} stages for {self.threads} threads")
         if bands.shape[1] != BAND_COLUMNS or bands.dtype != np.int64 or not bands.flags.c_contiguous:
             raise ValueError("the band table must be a C-contiguous int64 (bands, BAND_COLUMNS) array")
+        if not wait and deadline_ns is not None:
+            raise ValueError("a pass with a deadline cannot be posted without waiting for it")
         with self._posting:  # one pass on the board at a time
-            return self._post(stages, bands, timed, deadline_ns)
+            self._join_in_flight()
+            if wait:
+                return self._post(stages, bands, timed, deadline_ns, True)
+            self._in_flight = (stages, bands)
+            self._post(stages, bands, timed, None, False)
+            return count
+
+    @property
+    def in_flight(self) -> bool:
+        """Whether a pass posted without waiting may still be running (until ``join``)."""
+        return self._in_flight is not None
+
+    def join(self) -> float:
+        """Take part in the pass in flight and wait until it is done; the seconds this
+        waited (0 where none was in flight)."""
+        if self._in_flight is None:
+            return 0.0
+        with self._posting:
+            start = time.perf_counter()
+            self._join_in_flight()
+            return time.perf_counter() - start
+
+    def _join_in_flight(self) -> None:
+        """``join`` under the posting lock."""
+        if self._in_flight is not None:
+            self._join()
+            self._in_flight = None
 
     def _post(
-        self, stages: Sequence[Sequence[PackedKernel]], bands: np.ndarray, timed: bool, deadline_ns: int | None
+        self,
+        stages: Sequence[Sequence[PackedKernel]],
+        bands: np.ndarray,
+        timed: bool,
+        deadline_ns: int | None,
+        wait: bool,
     ) -> int:
-        """Write the pass's fields on the board and run it (``run``)."""
+        """Write the pass's fields on the board and post it, with ``wait`` taking part
+        and waiting until it is done (``run``); how many bands ran (with ``wait``)."""
         host = self._host
         host[STAGES] = len(stages)
         for s, blocks in enumerate(stages):
@@ -600,7 +671,7 @@ class BandPool:
         host[BANDS] = bands.ctypes.data
         host[TIMED] = int(timed)
         host[DEADLINE_NS] = NO_DEADLINE if deadline_ns is None else min(int(deadline_ns), NO_DEADLINE)
-        self._run(bands.shape[0])
+        self._run(bands.shape[0], int(wait))
         return int(host[RAN])
 
 

@@ -19,7 +19,11 @@ expected) a pass's bands (``Launcher.launch_bands``, and ``Launcher.launch_stage
 pass of two kernels a band with a deadline: the tracer's) run on native band threads
 that stay in native code between passes, so a pass costs neither a thread's wake-up nor
 Python per band.  Elsewhere, and for a deadline on an injected clock (which only Python
-can read), a pool of Python threads runs them (``share_until``, ``BandLaunch``).
+can read), a pool of Python threads runs them (``share_until``, ``BandLaunch``).  Within
+``Launcher.overlapping`` (the renderer's frame) such a pass runs on past its call while
+the caller's Python prepares the next one, which joins it first: a frame's Python
+between its passes (~1 ms of a 10-16 ms frame, most of it with the caches cold from the
+kernels) then overlaps the helper threads' work instead of leaving them idle.
 
 Passes whose writes could collide (the visibility buffer) give each thread slot its own
 output (inputs given per slot) and merge afterwards.  ``Launcher.profile`` (a
@@ -34,8 +38,9 @@ import math
 import os
 import threading
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
 
@@ -350,9 +355,18 @@ class Launcher:
         self._tables: dict[tuple, np.ndarray] = {}
         self._pixel_bands: dict[tuple, list[Launch]] = {}
         self.profile: LaunchProfile | None = None
+        #: While ``overlapping``: the frame's timer (an untimed native pass is then posted
+        #: without waiting for it); else None.
+        self._overlap: StageTimer | None = None
+        #: The stage of ``_overlap`` that posted the pass in flight (None: none open), and
+        #: what to call once it is done (``launch_bands``'s ``measured``).
+        self._flight_stage: str | None = None
+        self._flight_done: Callable[[], None] | None = None
 
     def close(self) -> None:
-        """Stop the worker threads (and let go of the arrays the kept blocks point to)."""
+        """Finish the pass in flight, stop the worker threads (and let go of the arrays the
+        kept blocks point to)."""
+        self.join()
         self._packed.clear()
         self._tables.clear()
         self._pixel_bands.clear()
@@ -375,9 +389,69 @@ class Launcher:
     def native_bands(self, on: bool) -> None:
         if on and self._pool_bands is None:
             raise ValueError("no native band threads here (CUDA, one thread, closed, or not this platform)")
+        self.join()
         if not on and self._pool_bands is not None:
             self._pool_bands.nap()
         self._bands = self._pool_bands if on else None
+
+    @contextmanager
+    def overlapping(self, timer: StageTimer) -> Iterator[None]:
+        """Within: an untimed pass on the native band threads (no deadline, no profile)
+        is posted without waiting for it, so the caller's Python up to the next pass (its
+        checks, its buffers, its arguments) runs while the helper threads work on it;
+        every call of this launcher that runs or reads anything first takes part in the
+        pass in flight and waits for it (``join``), and the block's end joins it.  The
+        caller must touch what a pass reads or writes only through this launcher, or
+        after ``join`` (``paused`` for code that does not).  The wait a join spends is
+        charged to ``timer``'s stage that posted the pass (``StageTimer.charge``), so the
+        stages still add up to the wall time.  Nothing changes where the timer's clock
+        is not the native threads' (an injected clock, a device sync) or without native
+        band threads."""
+        usable = self._bands is not None and timer.clock is perf_clock and timer.sync is None
+        outer = self._overlap
+        self._overlap = timer if usable else None
+        try:
+            yield
+        finally:
+            self.join()
+            self._overlap = outer
+
+    @contextmanager
+    def paused(self) -> Iterator[None]:
+        """Within an ``overlapping`` block: join the pass in flight, and run every pass to
+        its end (for code that reads or writes a pass's data outside this launcher)."""
+        self.join()
+        outer = self._overlap
+        self._overlap = None
+        try:
+            yield
+        finally:
+            self._overlap = outer
+
+    @property
+    def in_flight(self) -> bool:
+        """Whether a pass posted within ``overlapping`` may still be running (until ``join``)."""
+        return self._pool_bands is not None and self._pool_bands.in_flight
+
+    def join(self) -> None:
+        """Take part in the pass in flight (``overlapping``), if any, and wait until it is
+        done, its wait charged to the stage that posted it."""
+        done = self._join_pass()
+        if done is not None:
+            done()
+
+    def _join_pass(self) -> Callable[[], None] | None:
+        """``join`` but for the joined pass's ``then``, returned for the caller to call
+        (after posting the next pass, whose run it then overlaps)."""
+        bands = self._pool_bands
+        if bands is None or not bands.in_flight:
+            return None
+        waited = bands.join()
+        if self._overlap is not None and self._flight_stage is not None:
+            self._overlap.charge(self._flight_stage, waited)
+        done = self._flight_done
+        self._flight_stage = self._flight_done = None
+        return done
 
     def wake(self) -> None:
         """Wake the native band threads that sleep (``BandPool.wake``), before the work
@@ -403,6 +477,7 @@ class Launcher:
         the pool (handing a piece to a pool thread and waiting for it costs 40-160 us, the
         threads' wake-ups, more on a virtual machine; the caller would only wait).  Every
         piece runs before any exception propagates."""
+        self.join()
         if n <= 1 or self._pool is None:
             return [piece(k, n) for k in range(n)]
         if self._pool_bands is not None:
@@ -527,25 +602,35 @@ class Launcher:
         inputs: Inputs,
         bands: Sequence[Launch],
         timed: bool = False,
+        measured: Callable[[list[float]], None] | None = None,
     ) -> list[float] | None:
         """Run one CPU pass of ``kernel`` cut into ``bands``: band k launches over dimension
         ``bands[k][0]`` (an int, or a tuple of one or two) with inputs ``[*inputs,
         *bands[k][1]]`` (``inputs``: the same for every band, or a callable giving them
         per thread slot; the trailing integers int32), each thread taking the next band
         left (``launch_staged`` with one stage).  Returns each band's thread CPU seconds
-        with ``timed``, else None."""
+        with ``timed``, else None.  ``measured``: given them once the pass is done (where
+        it runs on past this call, ``overlapping``, when it is joined)."""
         if not bands:
+            if measured is not None:
+                measured([])
             return [] if timed else None
+        clocked = timed or measured is not None
         if self._bands is not None:
             self.ensure_loaded(kernel)
-            if timed or self.profile is not None:  # (its times are read back: a table of its own)
+            if clocked or self.profile is not None:  # (its times are read back: a table of its own)
                 table = band_table([[launch] for launch in bands], None, None)
             else:
                 table = self._kept_table(bands)
-            self._native_pass([(kernel, inputs)], [len(bands[0][1])], table, timed)
-            return (table[:, COL_CPU_NS] * 1e-9).tolist() if timed else None
-        staged = self.launch_staged([(kernel, inputs)], [StagedBand((launch,)) for launch in bands], cpu=timed)
-        return staged.cpu_seconds[:, 0].tolist() if timed else None
+            costs = (lambda: (table[:, COL_CPU_NS] * 1e-9).tolist()) if clocked else None
+            then = (lambda: measured(costs())) if measured is not None else None
+            self._native_pass([(kernel, inputs)], [len(bands[0][1])], table, timed, then=then)
+            return costs() if timed else None
+        staged = self.launch_staged([(kernel, inputs)], [StagedBand((launch,)) for launch in bands], cpu=clocked)
+        seconds = staged.cpu_seconds[:, 0].tolist()
+        if measured is not None:
+            measured(seconds)
+        return seconds if timed else None
 
     def launch_staged(
         self,
@@ -679,19 +764,33 @@ class Launcher:
         table: np.ndarray,
         timed: bool,
         deadline_ns: int | None = None,
+        then: Callable[[], None] | None = None,
     ) -> int:
         """One pass on the native band threads over the band table ``table``
         (``band_table``), stage s's kernel taking ``tails[s]`` trailing integers; returns
-        how many bands ran (the table gets each band's thread and, timed or profiled, its
-        times)."""
+        how many bands ran (the table gets each band's thread and, timed, profiled or
+        with ``then``, its times).  ``then()`` runs once the pass is done: within
+        ``overlapping`` a pass with no deadline, not ``timed`` (whose times the caller
+        reads at once) and not profiled runs on past this call, until it is joined."""
         blocks = [self._pack(kernel, inputs, tail, s) for s, ((kernel, inputs), tail) in enumerate(zip(stages, tails))]
         profile = self.profile
-        ran = self._bands.run(blocks, table, timed or profile is not None, deadline_ns)
+        if self._overlap is not None and not timed and profile is None and deadline_ns is None:
+            last_done = self._join_pass()
+            self._flight_stage = self._overlap.current
+            self._flight_done = then
+            count = self._bands.run(blocks, table, then is not None, wait=False)
+            if last_done is not None:  # (while this pass runs)
+                last_done()
+            return count
+        self.join()
+        ran = self._bands.run(blocks, table, timed or then is not None or profile is not None, deadline_ns)
         if profile is not None:
             for k, row in enumerate(table[:ran].tolist()):
                 for s, (kernel, _inputs) in enumerate(stages):
                     wall, cpu = row[COL_WALL_NS + s] * 1e-9, row[COL_CPU_NS + s] * 1e-9
                     profile.record(kernel.key, row[COL_SLOT], wall, cpu, k == 0)
+        if then is not None:
+            then()
         return ran
 
     def share_until(
@@ -726,6 +825,7 @@ class Launcher:
     def launch(self, kernel: wp.Kernel, slot: int, dim: Any, inputs: list[Any], first: bool = True) -> None:
         """One ``wp.launch`` on this thread (a band of a pass, on thread ``slot``;
         ``first``: the pass's first band), timed by kernel when profiling."""
+        self.join()
         self.profiled(kernel, slot, first, lambda: wp.launch(kernel, dim=dim, inputs=inputs, device=self.device))
 
     def profiled(self, kernel: wp.Kernel, slot: int, first: bool, run: Callable[[], None]) -> None:

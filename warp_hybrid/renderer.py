@@ -17,7 +17,12 @@ frame has a deadline) -> the ring's upsampling (hybrid with ``ring``;
 ``compose.upsample``) -> compose (hybrid) -> post.  A supersampled frame (``spp`` > 1, full
 mode; ``supersample``) runs the passes before the post once per sample, each at its own
 point in every pixel, accumulates them, renders the G-buffer once more at the pixel
-centres and posts the average.
+centres and posts the average.  In a frame of one sample the passes that touch the
+frame's data only through the launcher (``RenderPass.overlapped``: primary visibility,
+lighting, the alpha layer, post) leave their last launch running while the next pass's
+Python prepares (``Launcher.overlapping``); the others wait for it and for their own
+(``Launcher.paused``).  Its stage times stay the frame's wall time, split by stage (a
+wait for a launch still running is its stage's).
 """
 
 from __future__ import annotations
@@ -553,11 +558,21 @@ class Renderer:
         frame.changed_rows = frame.changed_cols = NO_ROWS if cached else None
         self._still_view = None  # until this frame is whole
         if spp == 1:
-            for p in self.passes:
-                if not (cached and isinstance(p, _RASTER_LAYER_PASSES)):
-                    p.execute(frame)
+            # (a pass's last launch runs on while the next pass's Python prepares; the
+            # others' wait: ``RenderPass.overlapped``)
+            with self.launcher.overlapping(frame.timer):
+                for p in self.passes:
+                    if cached and isinstance(p, _RASTER_LAYER_PASSES):
+                        continue
+                    if p.overlapped:
+                        p.execute(frame)
+                    else:
+                        with self.launcher.paused():
+                            p.execute(frame)
+                stats = self._frame_description(camera, frame, spp)  # (while the last pass runs)
         else:
             self._render_samples(camera, frame, spp)
+            stats = self._frame_description(camera, frame, spp)
         self._still_view = key
         with frame.timer.stage("readback"):
             image = np.array(frame.image.numpy(), copy=True)
@@ -570,7 +585,24 @@ class Renderer:
             )
             if host_copies:
                 out.copy_to_host()
-        stats = {
+        stats.update(
+            stages_ms=dict(frame.timer.stages_ms),
+            frame_ms=frame.timer.total_ms,
+            exposure_ev=self._post.last_exposure_ev,
+        )
+        if frame.region is not None and rays is not None:
+            stats.update(self._trace_stats(frame, rays))
+        guard = self._guard.report if self._guard is not None else None
+        if guard is not None:
+            stats["guard"] = dataclasses.asdict(guard)
+        out.stats = stats
+        return out
+
+    def _frame_description(self, camera: Camera, frame: FrameContext, spp: int) -> dict[str, Any]:
+        """The stats of a frame that no pass writes: what was drawn, how and from where
+        (``Frame.stats``; its times and EV None until the frame is done, its rays after)."""
+        s = self.settings
+        return {
             "scene": self.scene.path,
             "camera": camera.name,
             "time": self.scene.time,
@@ -584,19 +616,12 @@ class Renderer:
             "threads": self.launcher.threads,
             "effects": self.device_scene.features.names(),
             "setup_ms": dict(self.setup_ms),
-            "stages_ms": dict(frame.timer.stages_ms),
-            "frame_ms": frame.timer.total_ms,
-            "exposure_ev": self._post.last_exposure_ev,
-            "raster_cached": cached,
+            "stages_ms": None,
+            "frame_ms": None,
+            "exposure_ev": None,
+            "raster_cached": frame.raster_cached,
             "raster_rows": list(frame.raster_rows) if frame.raster_rows is not None else None,
         }
-        if frame.region is not None and rays is not None:
-            stats.update(self._trace_stats(frame, rays))
-        guard = self._guard.report if self._guard is not None else None
-        if guard is not None:
-            stats["guard"] = dataclasses.asdict(guard)
-        out.stats = stats
-        return out
 
     def _camera_gpu(self, camera: Camera) -> CameraGPU:
         """``camera`` checked (``check_camera``) and made into the kernels' camera for the

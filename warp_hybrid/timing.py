@@ -32,6 +32,9 @@ class StageTimer:
     clock: Clock = perf_clock
     sync: Callable[[], None] | None = None
     stages_ms: dict[str, float] = field(default_factory=dict)
+    #: The open stages, innermost last: each one's name and the milliseconds charged to
+    #: other stages while it was open (``charge``).
+    _open: list[list] = field(default_factory=list, repr=False)
 
     def now(self) -> float:
         """The clock's reading in seconds, after the device finished its queued work."""
@@ -41,13 +44,34 @@ class StageTimer:
 
     @contextmanager
     def stage(self, name: str) -> Iterator[None]:
-        """Time the enclosed block and add it to ``stages_ms[name]``."""
+        """Time the enclosed block and add it to ``stages_ms[name]`` (less what was charged
+        to other stages meanwhile, ``charge``)."""
         start = self.now()
+        entry = [name, 0.0]
+        self._open.append(entry)
         try:
             yield
         finally:
-            elapsed = (self.now() - start) * 1000.0
+            self._open.pop()
+            elapsed = (self.now() - start) * 1000.0 - entry[1]
             self.stages_ms[name] = self.stages_ms.get(name, 0.0) + elapsed
+            if self._open:  # (an enclosing stage's time holds the charged time too)
+                self._open[-1][1] += entry[1]
+
+    @property
+    def current(self) -> str | None:
+        """The innermost open stage's name (None outside every stage)."""
+        return self._open[-1][0] if self._open else None
+
+    def charge(self, name: str, seconds: float) -> None:
+        """Move ``seconds`` of the open stages' time to stage ``name``: work that stage
+        started, which the innermost open stage waited for (a pass that ran on while the
+        next stage's Python prepared the next, ``Launcher.overlapping``).  Outside every
+        stage the time is only added to ``name``."""
+        ms = seconds * 1000.0
+        self.stages_ms[name] = self.stages_ms.get(name, 0.0) + ms
+        if self._open:
+            self._open[-1][1] += ms
 
     def add(self, name: str, ms: float) -> None:
         """Add ``ms`` to ``stages_ms[name]`` (a stage measured by its caller)."""

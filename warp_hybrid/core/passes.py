@@ -116,6 +116,11 @@ class RenderPass(ABC):
     """One stage of a frame (see the module docstring)."""
 
     scene: DeviceScene | None = None
+    #: Whether the pass reads and writes a frame's data only through its launcher's passes
+    #: (or after ``Launcher.join``), so its last pass may still run while the Python after
+    #: it does (``Launcher.overlapping``); the renderer runs every other pass with the
+    #: launcher ``paused``.
+    overlapped: bool = False
 
     def set_scene(self, scene: DeviceScene) -> None:
         """Draw ``scene`` from now on (called again after every scene update)."""

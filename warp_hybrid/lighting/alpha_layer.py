@@ -64,6 +64,8 @@ class AlphaLayer(RenderPass):
     """Blends what lies behind alpha-blended surfaces into the raster layer (module
     docstring); runs after the lighting pass, on ``shadow_maps`` when given."""
 
+    overlapped = True
+
     def __init__(
         self, launcher: Launcher, shadow_maps: ShadowMaps | None = None, probe: ReflectionProbe | None = None
     ) -> None:

@@ -197,6 +197,8 @@ class DeferredLighting(RenderPass):
     runs earlier in the frame), its glossy ambient from ``probe`` when given (the
     "probes" pass, after the maps)."""
 
+    overlapped = True
+
     def __init__(
         self,
         launcher: Launcher,

@@ -7,8 +7,9 @@ The per-pixel kernels follow ``Launcher.launch_pixels`` (last inputs ``row0, row
 cols``): on the CPU a launch item is a whole row (argument copies are paid once per
 row), on CUDA one pixel.  The tone map and FXAA also take the columns ``x0 <= x < x1``
 they draw (all of them, or the part of a kept frame that changed).  The exposure
-kernels run one thread (``wp.launch`` with ``dim=1``) and keep the frame's exposure in
-device memory, so no stage reads it back.
+kernels run one thread (``Launcher.launch_items`` of one item, so they queue behind the
+pass in flight as any pass does) and keep the frame's exposure in device memory, so no
+stage reads it back.
 
 No ``from __future__ import annotations`` here: the closures' kernel signatures use
 local types, which Warp resolves from evaluated annotations."""
@@ -132,10 +133,13 @@ def exposure_from_rows(
     row_count: wp.array(dtype=wp.int32),
     two: wp.float64,
     exposure: wp.array(dtype=Exposure),
+    start: int,
+    step: int,
 ):
     """One thread: the automatic exposure of the rows' log sums and counts (their
     total in numpy's order, so it equals the host's ``np.sum`` of them) into
-    ``exposure[0]``; ``two`` = 2.0 (see ``exposure_from_log_sum``)."""
+    ``exposure[0]``; ``two`` = 2.0 (see ``exposure_from_log_sum``); ``start, step``:
+    ``launch_items``'s (one item)."""
     count = wp.int64(0)
     for i in range(row_count.shape[0]):
         count += wp.int64(row_count[i])
@@ -143,8 +147,9 @@ def exposure_from_rows(
 
 
 @wp.kernel
-def fixed_exposure(ev: wp.float64, scale: float, exposure: wp.array(dtype=Exposure)):
-    """One thread: a fixed exposure (EV and scale from the host) into ``exposure[0]``."""
+def fixed_exposure(ev: wp.float64, scale: float, exposure: wp.array(dtype=Exposure), start: int, step: int):
+    """One thread: a fixed exposure (EV and scale from the host) into ``exposure[0]``
+    (``start, step``: ``launch_items``'s, one item)."""
     fixed = Exposure()
     fixed.ev = ev
     fixed.scale = scale

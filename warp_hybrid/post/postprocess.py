@@ -20,7 +20,7 @@ import warp as wp
 
 from ..core.passes import FrameContext, MeteredRows, RenderPass
 from ..core.rows import NO_ROWS, RowSpan, span_clip, span_grow
-from ..parallel import FEW_BANDS_PER_THREAD, Launcher, kept
+from ..parallel import FEW_BANDS_PER_THREAD, Launcher
 from ..timing import StageTimer
 from .aa import FXAA_REACH_PX, luma_buffer
 from .color import make_srgb8_encoder
@@ -41,7 +41,11 @@ TONEMAPS = tuple(OPERATORS)
 
 
 class PostProcess(RenderPass):
-    """Linear HDR colour in, uint8 sRGB (H, W, 3) out (stages "tonemap" and "aa")."""
+    """Linear HDR colour in, uint8 sRGB (H, W, 3) out (stages "tonemap" and "aa"); its
+    exposure's one-thread launches and host writes wait for the pass in flight
+    (``Launcher.join``)."""
+
+    overlapped = True
 
     def __init__(
         self, launcher: Launcher, exposure_ev: float | None = None, tonemap: str = "aces", antialias: bool = True
@@ -53,10 +57,6 @@ class PostProcess(RenderPass):
         self.tonemap = tonemap
         self.antialias = antialias
         self._buffers: dict[str, wp.array] = {}
-        # ``exposure_from_rows``'s recorded launches by the rows they read (``wp.launch``'s
-        # argument packing is most of a one-thread kernel's cost): this stage's own, and the
-        # rows of the layer the lighting pass meters
-        self._row_exposures: dict[tuple, wp.Launch] = {}
         self._encoder = make_srgb8_encoder(launcher.device)
         self._exposure = wp.zeros(1, dtype=Exposure, device=launcher.device)  # EV 0 until a frame runs
         # what the last call drew: its colour array (held, so no other array takes its
@@ -73,6 +73,7 @@ class PostProcess(RenderPass):
     def last_exposure_ev(self) -> float:
         """The EV of the last frame (0 before any), read from the device: this waits
         for the frame's exposure, so read it after the frame (with its image)."""
+        self.launcher.join()
         return float(self._exposure.numpy()[0]["ev"])
 
     def _targets(self, height: int, width: int) -> dict[str, wp.array]:
@@ -110,6 +111,7 @@ class PostProcess(RenderPass):
         logs summed per row, then the rows and the EV in one thread.  Nothing is
         read back (``last_exposure_ev`` does that)."""
         self._drawn = None
+        self.launcher.join()  # (the sums are zeroed from the host)
         h, w = int(color.shape[0]), int(color.shape[1])
         buffers = self._targets(h, w)
         kind, mask = self._mask(hit_mask, (h, w))
@@ -134,26 +136,13 @@ class PostProcess(RenderPass):
         device, in the order ``auto_exposure`` sums its own rows (so the same rows give
         the same EV)."""
         self._drawn = None
-        key = (row_sum.ptr, row_count.ptr, row_sum.shape, row_count.shape)
-        launch = kept(
-            self._row_exposures,
-            key,
-            lambda: wp.launch(
-                exposure_from_rows,
-                dim=1,
-                inputs=[row_sum, row_count, 2.0, self._exposure],
-                device=self.launcher.device,
-                record_cmd=True,
-            ),
-            limit=2,  # (this stage's rows and the lighting pass's; after a resize the old ones go)
-        )
-        launch.launch()
+        self.launcher.launch_items(exposure_from_rows, 1, [row_sum, row_count, 2.0, self._exposure])
 
     def set_exposure(self, ev: float) -> None:
         """Set ``exposure`` to the fixed ``ev`` (scale ``2**ev`` from the host)."""
         self._drawn = None
         ev = float(ev)
-        wp.launch(fixed_exposure, dim=1, inputs=[ev, 2.0**ev, self._exposure], device=self.launcher.device)
+        self.launcher.launch_items(fixed_exposure, 1, [ev, 2.0**ev, self._exposure])
 
     def execute(self, frame: FrameContext) -> None:
         """Post-process ``frame``'s colour into ``frame.image`` (a device array), the

@@ -33,6 +33,8 @@ from . import kernels
 class PrimaryVisibility(RenderPass):
     """Fills the frame's G-buffer (see the module docstring)."""
 
+    overlapped = True
+
     def __init__(self, launcher: Launcher) -> None:
         """Use ``launcher`` for the device and the host threads."""
         self.launcher = launcher

@@ -178,11 +178,12 @@ class Rasterizer(PrimaryVisibility):
             kernels.clear_keys_kernel, threads * (bottom - top), width, [keys, wp.uint64(clear), top, bottom - top]
         )
         spans = self._cluster_bands.spans(clusters, band_count(clusters, threads, MIN_BAND_CLUSTERS))
-        costs = launcher.launch_bands(
-            kernels.coverage_kernel, inputs, [(size, (first, 1)) for first, size in spans], timed=True
+        launcher.launch_bands(
+            kernels.coverage_kernel,
+            inputs,
+            [(size, (first, 1)) for first, size in spans],
+            measured=(lambda costs: self._cluster_bands.measured(spans, costs)) if mode == MODE_DEPTH else None,
         )
-        if mode == MODE_DEPTH:
-            self._cluster_bands.measured(spans, costs)
         return threads
 
     def find_hits(

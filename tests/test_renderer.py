@@ -14,6 +14,7 @@ from warp_hybrid.band_pool import BandPool, layout_matches
 from warp_hybrid.errors import RenderSettingsError, SceneError
 from warp_hybrid.parallel import Launcher
 from warp_hybrid.post.postprocess import PostProcess
+from warp_hybrid.primary.base import PrimaryVisibility
 from warp_hybrid.renderer import Renderer, RenderSettings
 from warp_hybrid.scene.authoring.builders import look_at_camera, make_scene, quad, uv_sphere
 from warp_hybrid.scene.model import Light, LightKind, Material
@@ -219,6 +220,38 @@ def test_passes_running_on_past_their_call_draw_the_frame_that_waits_for_each(
         assert ran_on.stats["exposure_ev"] == waited.stats["exposure_ev"] != 0.0
         assert min(ran_on.stats["stages_ms"].values()) >= 0.0
         assert set(ran_on.stats["stages_ms"]) == set(waited.stats["stages_ms"])
+
+
+@pytest.mark.parametrize("mode", ["raster", "hybrid"])
+def test_the_geometric_normals_are_drawn_where_a_pass_reads_them(device: str, mode: str) -> None:
+    """A raster frame without shadow maps leaves the geometric normals out (no traced ray
+    leaves its surfaces, no shadow map is looked up) and says so; every other channel and
+    the image are what a frame drawing them holds, bit for bit.  A hybrid frame and a raster
+    frame with shadow maps draw them: unit face normals facing the camera."""
+    scene = sphere_scene()
+    cam = scene.cameras[0]
+    frames = {}
+    for draw in (False, True):
+        with Renderer(scene, RenderSettings(width=W, height=H, device=device, mode=mode)) as r:
+            if draw:
+                next(p for p in r.passes if isinstance(p, PrimaryVisibility)).geometric_normals = True
+            frames[draw] = r.render(cam)
+            assert r.buffers.gbuffer.geometric_normals == (draw or mode != "raster")
+    kept, drawn = frames[False], frames[True]
+    np.testing.assert_array_equal(kept.image, drawn.image)
+    for name, array in drawn.gbuffer.arrays().items():
+        if name != "geometric_normal" or mode != "raster":
+            np.testing.assert_array_equal(kept.gbuffer.channel_numpy(name), drawn.gbuffer.channel_numpy(name), name)
+    if mode == "raster":
+        assert not kept.gbuffer.geometric_normal.numpy().any()  # (the cleared buffer's zero)
+    for frame in (drawn, kept if mode != "raster" else None):
+        if frame is None:
+            continue
+        hit = frame.gbuffer.hit_mask()
+        ng = frame.gbuffer.channel_numpy("geometric_normal")[hit]
+        np.testing.assert_allclose(np.linalg.norm(ng, axis=1), 1.0, atol=1e-5)
+    with Renderer(scene, RenderSettings(width=W, height=H, device=device, mode="raster", shadow_maps=True)) as r:
+        assert r.render(cam).gbuffer.geometric_normals
 
 
 def test_a_camera_changed_in_place_is_drawn_and_checked_again(device: str) -> None:

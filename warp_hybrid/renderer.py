@@ -382,6 +382,9 @@ class Renderer:
         # (automatic exposure: the lighting row loop meters the raster layer as it writes it)
         meter = s.exposure_ev is None
         if s.mode == "raster":
+            # (no traced ray leaves a raster frame's surfaces: only the shadow maps' lookups
+            # read their geometric normals)
+            primary.geometric_normals = maps is not None
             passes += [DeferredLighting(self.launcher, maps, probe, meter), AlphaLayer(self.launcher, maps, probe)]
         else:
             ring = s.ring_spec

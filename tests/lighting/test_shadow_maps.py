@@ -13,11 +13,13 @@ from bad_input_kit import run_cli
 from scipy.ndimage import maximum_filter, minimum_filter
 
 from warp_hybrid import Renderer, RenderSettings, cli
+from warp_hybrid.core.camera import make_camera_gpu
 from warp_hybrid.errors import ArgumentTypeError, RenderSettingsError
 from warp_hybrid.lighting.deferred import SHADE_KERNELS, DeferredLighting
 from warp_hybrid.lighting.shadow_maps import ShadowMaps, light_faces
 from warp_hybrid.scene.authoring.builders import MeshInput, look_at_camera, make_scene, quad
 from warp_hybrid.scene.model import Light, LightKind, Material, Scene
+from warp_hybrid.timing import StageTimer
 
 W, H = 96, 72
 MAP_SIZE = 256
@@ -201,7 +203,8 @@ def test_which_surfaces_cast(device: str, panel: Material, casts: bool) -> None:
         quad((-1.0, 1.5, 1.0), (2.0, 0.0, 0.0), (0.0, 0.0, -2.0), 1),
     ]
     scene = make_scene(meshes, mats, lights=[LIGHTS["sphere"]], cameras=[_scene(LIGHTS["sphere"]).cameras[0]])
-    with Renderer(scene, _settings("raster", device=device)) as r:
+    # (shadow maps on: a raster frame without them leaves the geometric normals the maps' lookups read out)
+    with Renderer(scene, _settings("raster", device=device, shadow_maps=True)) as r:
         frame = r.render(scene.cameras[0])
         maps = ShadowMaps(r.launcher, 64)
         maps.set_scene(r.device_scene)
@@ -211,6 +214,25 @@ def test_which_surfaces_cast(device: str, panel: Material, casts: bool) -> None:
     floor &= frame.gbuffer.triangle_id.numpy() >= 0
     shadowed = int((mapped[floor] < 0.5).sum())
     assert (shadowed > 100) if casts else (shadowed == 0), shadowed
+
+
+def test_a_g_buffer_without_geometric_normals_is_refused_clearly(device: str) -> None:
+    """A raster frame without shadow maps leaves the geometric normals out: the maps'
+    lookups (the diagnostic, the shadow-mapped lighting) refuse its G-buffer, naming why."""
+    scene = _scene(LIGHTS["sphere"])
+    with Renderer(scene, _settings("raster", device=device)) as r:
+        frame = r.render(scene.cameras[0])
+        assert not frame.gbuffer.geometric_normals
+        maps = ShadowMaps(r.launcher, 64)
+        maps.set_scene(r.device_scene)
+        maps.update()
+        with pytest.raises(ValueError, match="ShadowMaps.visibility reads the G-buffer's geometric normals"):
+            maps.visibility(frame.gbuffer)
+        color = r.buffers.raster_color
+        with pytest.raises(ValueError, match="shadow-mapped lighting reads the G-buffer's geometric normals"):
+            DeferredLighting(r.launcher, maps).shade(
+                r.device_scene, make_camera_gpu(scene.cameras[0], W, H), frame.gbuffer, color, StageTimer(), maps.gpu
+            )
 
 
 def test_one_sided_lights_draw_only_their_side() -> None:

@@ -15,7 +15,7 @@ from warp_hybrid.core.native_rows import SURFACE_CHUNK_CPU
 from warp_hybrid.core.scene_gpu import SceneGPU
 from warp_hybrid.parallel import Launcher
 from warp_hybrid.primary import PrimaryVisibility, Rasterizer
-from warp_hybrid.primary.kernels import SHORT_RUN_PIXELS, _write_surface
+from warp_hybrid.primary.kernels import SHORT_RUN_PIXELS, SURFACE_ALL, _write_surface
 from warp_hybrid.scene.authoring.builders import look_at_camera, make_scene, quad, uv_sphere
 from warp_hybrid.scene.device import DeviceScene
 from warp_hybrid.scene.model import Material, TextureBinding, TextureImage, Wrap
@@ -34,7 +34,7 @@ def scalar_surface_kernel(scene: SceneGPU, cam: CameraGPU, gb: GBufferRows):
     i = y * cam.width + x
     tri = gb.triangle_id[i]
     if tri >= 0:
-        _write_surface(gb, i, scene, cam, tri, gb.barycentric[i], pixel_ray(cam, x, y))
+        _write_surface(gb, i, scene, cam, tri, gb.barycentric[i], pixel_ray(cam, x, y), wp.static(SURFACE_ALL))
 
 
 def _scene():

@@ -55,7 +55,13 @@ CHANNELS: tuple[Channel, ...] = (
     Channel("barycentric", wp.vec2, 0.0, "Warp's (u, v) of the hit on triangle_id (hit record)"),
     Channel("position", wp.vec3, 0.0, "hit point in the scene's local frame (world = it + Scene.origin)", math.nan),
     Channel("normal", wp.vec3, 0.0, "unit shading normal, facing the camera", math.nan),
-    Channel("geometric_normal", wp.vec3, 0.0, "unit face normal, facing the camera (ray offsets)"),
+    Channel(
+        "geometric_normal",
+        wp.vec3,
+        0.0,
+        "unit face normal, facing the camera (ray offsets, shadow-map lookups; left out by a raster frame without"
+        " shadow maps, which reads it nowhere: GBuffer.geometric_normals)",
+    ),
     Channel("albedo", wp.vec3, 0.0, "diffuse colour: linear, textures applied, times (1 - metallic)", 0.0),
     Channel("specular", wp.vec3, 0.0, "specular F0 colour"),
     Channel("emission", wp.vec3, 0.0, "emitted radiance"),
@@ -86,8 +92,10 @@ class GBuffer:
     surface pass's row loop wrote it there, 0 where it wrote a surface or does not know
     (``clear``); a block that sees no surface again is left as it is.  Likewise
     ``emission_background``: whether the emission channel holds the background's zero in
-    every pixel (``surface_writes_emission``).  The channels are the primary passes' to
-    write: anything else that writes one must ``clear``."""
+    every pixel (``surface_writes_emission``).  ``geometric_normals``: whether the
+    ``geometric_normal`` channel holds every pixel's (a surface pass told not to write it
+    leaves it as it was: ``surface_draws_geometric_normals``).  The channels are the
+    primary passes' to write: anything else that writes one must ``clear``."""
 
     def __init__(self, width: int, height: int, device: wp.context.Device | str) -> None:
         """Allocate a G-buffer of ``width`` x ``height`` on ``device``, cleared."""
@@ -100,6 +108,7 @@ class GBuffer:
             (self.height, -(-self.width // SURFACE_CHUNK_CPU)), dtype=wp.int32, device=self.device
         )
         self.emission_background = False
+        self.geometric_normals = True
         self._rows = GBufferRows()
         self._kernel_arrays = GBufferArrays()
         for name, array in self._arrays.items():
@@ -124,12 +133,32 @@ class GBuffer:
         ``background_blocks`` is zeroed (unknown)."""
         self.background_blocks.zero_()
         self.emission_background = True
+        self.geometric_normals = True
         for c in CHANNELS:
             array = self._arrays[c.name]
             if c.background == 0.0:
                 array.zero_()
             else:
                 array.fill_(c.background)
+
+    def surface_draws_geometric_normals(self, drawn: bool, every_row: bool) -> None:
+        """Record what the surface pass about to run leaves in the ``geometric_normal``
+        channel: a pass that does not write it (``drawn`` False) leaves the channel stale;
+        one that writes it over every row (``every_row``) leaves every pixel's."""
+        if not drawn:
+            self.geometric_normals = False
+        elif every_row:
+            self.geometric_normals = True
+
+    def require_geometric_normals(self, reader: str) -> None:
+        """Raise ``ValueError`` naming ``reader`` where the ``geometric_normal`` channel does
+        not hold every pixel's (``geometric_normals``)."""
+        if not self.geometric_normals:
+            raise ValueError(
+                f"{reader} reads the G-buffer's geometric normals, which the frame that drew it left out "
+                "(a raster frame without shadow maps reads them nowhere): render with shadow_maps=True, "
+                "or set PrimaryVisibility.geometric_normals"
+            )
 
     def surface_writes_emission(self, emissive: bool, every_row: bool) -> bool:
         """Whether the surface pass about to run must write the emission channel, for a

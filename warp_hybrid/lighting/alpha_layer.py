@@ -75,6 +75,7 @@ class AlphaLayer(RenderPass):
         self.shadow_maps = shadow_maps
         self.probe = probe
         self._rasterizer = Rasterizer(launcher)
+        self._rasterizer.geometric_normals = shadow_maps is not None  # (no ray leaves the layer behind)
         self._lighting = DeferredLighting(launcher, shadow_maps, probe)
         self._behind: GBuffer | None = None
         self._behind_color: wp.array | None = None

@@ -270,6 +270,8 @@ class DeferredLighting(RenderPass):
                 f"color_out {tuple(color_out.shape)} and camera {camera.width}x{camera.height} "
                 f"must match the G-buffer ({w}x{h})"
             )
+        if maps is not None:
+            gbuffer.require_geometric_normals("the shadow-mapped lighting")
         kernel = shade_kernel(maps is not None, probe is not None)
         inputs = [
             scene.gpu,

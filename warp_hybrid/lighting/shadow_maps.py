@@ -225,6 +225,7 @@ class ShadowMaps(RenderPass):
         """Diagnostic: (H, W, L) float32 shadow-map visibility of every light at each
         G-buffer pixel (NaN on background), from the current maps."""
         assert self.scene is not None, "set_scene first"
+        gbuffer.require_geometric_normals("ShadowMaps.visibility")
         h, w = gbuffer.height, gbuffer.width
         out = wp.full(
             (h, w, len(self.scene.scene.lights)), value=math.nan, dtype=wp.float32, device=self.launcher.device

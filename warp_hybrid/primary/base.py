@@ -38,6 +38,11 @@ class PrimaryVisibility(RenderPass):
     def __init__(self, launcher: Launcher) -> None:
         """Use ``launcher`` for the device and the host threads."""
         self.launcher = launcher
+        #: Whether the surface pass writes the ``geometric_normal`` channel, which only traced
+        #: rays (their offsets) and the shadow maps' lookups read: a renderer whose frames do
+        #: neither turns it off (``Renderer``), and the channel is left as it was (the
+        #: G-buffer says so: ``GBuffer.geometric_normals``).
+        self.geometric_normals = True
         launcher.ensure_loaded(kernels.surface_kernel)  # the primary kernels' one module
         # the surface kernel's key slices where the hit record is in the G-buffer: none
         self._no_keys = wp.empty((0, 0, 0), dtype=wp.uint64, device=launcher.device)
@@ -60,6 +65,10 @@ class PrimaryVisibility(RenderPass):
         with timer.stage("surface"):
             every_row = rows is None or (rows[0] <= 0 and rows[1] >= gbuffer.height)
             write_emission = gbuffer.surface_writes_emission(scene.features.emission, every_row)
+            gbuffer.surface_draws_geometric_normals(self.geometric_normals, every_row)
+            channels = (kernels.SURFACE_EMISSION if write_emission else 0) | (
+                kernels.SURFACE_GEOMETRIC_NORMAL if self.geometric_normals else 0
+            )
             self.launcher.launch_pixels(
                 kernels.surface_kernel,
                 gbuffer.height,
@@ -70,7 +79,7 @@ class PrimaryVisibility(RenderPass):
                     self._no_keys if keys is None else keys,
                     gbuffer.rows(),
                     gbuffer.background_blocks,
-                    int(write_emission),
+                    channels,
                 ],
                 rows=rows,
             )

@@ -310,19 +310,24 @@ def _write_miss_record(gb: GBufferRows, i: int):
 
 
 @wp.func(inline=True)
-def _write_surface(gb: GBufferRows, i: int, scene: SceneGPU, cam: CameraGPU, tri: int, b: wp.vec2, d: wp.vec3):
+def _write_surface(
+    gb: GBufferRows, i: int, scene: SceneGPU, cam: CameraGPU, tri: int, b: wp.vec2, d: wp.vec3, channels: int
+):
     """Evaluate the surface at barycentrics ``b`` of ``tri`` (textures filtered over the
-    pixel's footprint; ``d`` is the camera ray) into every other channel at ``i``."""
+    pixel's footprint; ``d`` is the camera ray) into every other channel at ``i`` (the
+    optional ones where ``channels`` has their bit, ``SURFACE_EMISSION``...)."""
     footprint = wp.vec4(0.0, 0.0, 0.0, 0.0)
     if samples_textures(scene, tri):
         footprint = pixel_footprint(scene, cam, tri, d)
     h = surface_at_grad(scene, tri, b[0], b[1], d, footprint)
     gb.position[i] = h.position
     gb.normal[i] = h.normal
-    gb.geometric_normal[i] = h.geometric_normal
+    if (channels & wp.static(SURFACE_GEOMETRIC_NORMAL)) != 0:
+        gb.geometric_normal[i] = h.geometric_normal
     gb.albedo[i] = h.albedo
     gb.specular[i] = h.specular
-    gb.emission[i] = h.emission
+    if (channels & wp.static(SURFACE_EMISSION)) != 0:
+        gb.emission[i] = h.emission
     optics = Optics()
     optics.reflectivity = luma709(h.specular)
     optics.ior = h.ior
@@ -623,15 +628,21 @@ def _background_lanes_cpp(keep: str) -> str:
     return " ".join(lines)
 
 
-#: The channels the surface row loop writes only where its argument of this name is
-#: non-zero (``GBuffer.surface_writes_emission``: a scene without an emissive material
-#: leaves the emission channel at the background's zero, once it is there).
-_OPTIONAL_CHANNELS = {"emission": "write_emission"}
+#: Bits of the surface pass's ``channels``: the channels it writes only where asked.  The
+#: emission (``GBuffer.surface_writes_emission``: a scene without an emissive material
+#: leaves the channel at the background's zero, once it is there); the geometric normal
+#: (``PrimaryVisibility.geometric_normals``: only traced rays' offsets and the shadow
+#: maps' lookups read it).
+SURFACE_EMISSION = 1
+SURFACE_GEOMETRIC_NORMAL = 2
+#: Every optional channel.
+SURFACE_ALL = SURFACE_EMISSION | SURFACE_GEOMETRIC_NORMAL
+_OPTIONAL_CHANNELS = {"emission": SURFACE_EMISSION, "geometric_normal": SURFACE_GEOMETRIC_NORMAL}
 
 #: C++: the chunk's channels written to the G-buffer's rows from the lane arrays.
 _WRITE_LANES_CPP = (
     " ".join(
-        (f"if ({_OPTIONAL_CHANNELS[channel]} != 0) " if channel in _OPTIONAL_CHANNELS else "")
+        (f"if ((channels & {_OPTIONAL_CHANNELS[channel]}) != 0) " if channel in _OPTIONAL_CHANNELS else "")
         + f"wh_write_floats((float*)(gb.{channel}.data + row + xs), {len(lanes)}, n, "
         f"{', '.join(lanes + ('nullptr',) * (4 - len(lanes)))});"
         for channel, lanes in _SURFACE_LANES.items()
@@ -1091,7 +1102,7 @@ def _surface_span(
     cam: CameraGPU,
     gb: GBufferRows,
     background_blocks: wp.array2d(dtype=wp.int32),
-    write_emission: int,
+    channels: int,
     ddx: wp.vec3,
     ddy: wp.vec3,
     y: int,
@@ -1102,7 +1113,7 @@ def _surface_span(
     (``_surface_span_cpp``): pixel by pixel the same bits as ``_write_surface``, the
     background's values (``gbuffer.BACKGROUND``) where no surface is hit (kept where a
     block of ``background_blocks`` says they are there already, and that flag kept);
-    the emission channel only where ``write_emission`` is non-zero; ``ddx``, ``ddy``:
+    the optional channels where ``channels`` has their bit (``SURFACE_EMISSION``...); ``ddx``, ``ddy``:
     the camera ray's steps (``hit_record.sample_steps``).  Returns how many hit pixels
     it left for the scalar path (their material has a normal map)."""
     ...
@@ -1115,7 +1126,7 @@ def _resolved_surface_span(
     keys: wp.array3d(dtype=wp.uint64),
     gb: GBufferRows,
     background_blocks: wp.array2d(dtype=wp.int32),
-    write_emission: int,
+    channels: int,
     miss_triangle: int,
     miss_depth: float,
     miss_barycentric: float,
@@ -1139,15 +1150,15 @@ def surface_kernel(
     keys: wp.array3d(dtype=wp.uint64),
     gb: GBufferRows,
     background_blocks: wp.array2d(dtype=wp.int32),
-    write_emission: int,
+    channels: int,
     row0: int,
     row_step: int,
     cols: int,
 ):
     """Per row (a launch item's columns): the surface named by each pixel's hit record
     into the remaining G-buffer channels (the background's values where the pixel sees no
-    surface; ``background_blocks``: the G-buffer's ``background_blocks``; the emission
-    channel only where ``write_emission`` is non-zero, ``GBuffer.surface_writes_emission``),
+    surface; ``background_blocks``: the G-buffer's ``background_blocks``; the optional
+    channels where ``channels`` has their bit, ``SURFACE_EMISSION``...),
     in a native row loop; the pixels it leaves (normal-mapped materials) one at a time.
     The hit record is the one in the G-buffer (whichever primary path wrote it) where
     ``keys`` holds no slice (``_surface_span``); else the raster frame's, resolved from
@@ -1167,7 +1178,7 @@ def surface_kernel(
                 keys,
                 gb,
                 background_blocks,
-                write_emission,
+                channels,
                 wp.static(int(BACKGROUND["triangle_id"])),
                 wp.static(float(BACKGROUND["depth"])),
                 wp.static(float(BACKGROUND["barycentric"])),
@@ -1178,14 +1189,14 @@ def surface_kernel(
                 stop,
             )
         else:
-            left = _surface_span(scene, cam, gb, background_blocks, write_emission, steps[0], steps[1], y, first, stop)
+            left = _surface_span(scene, cam, gb, background_blocks, channels, steps[0], steps[1], y, first, stop)
         if left > 0:
             for x in range(first, stop):
                 i = y * cam.width + x
                 tri = gb.triangle_id[i]
                 if tri >= 0:
                     if scene.materials[scene.triangle_material[tri]].normal_tex >= 0:
-                        _write_surface(gb, i, scene, cam, tri, gb.barycentric[i], pixel_ray(cam, x, y))
+                        _write_surface(gb, i, scene, cam, tri, gb.barycentric[i], pixel_ray(cam, x, y), channels)
 
 
 @wp.kernel
@@ -1212,4 +1223,6 @@ def listed_primary_kernel(
                 _cast(scene, wide, cam, gb, xy[0], xy[1])
             tri = gb.triangle_id[i]
             if tri >= 0:
-                _write_surface(gb, i, scene, cam, tri, gb.barycentric[i], pixel_ray(cam, xy[0], xy[1]))
+                _write_surface(
+                    gb, i, scene, cam, tri, gb.barycentric[i], pixel_ray(cam, xy[0], xy[1]), wp.static(SURFACE_ALL)
+                )

@@ -245,11 +245,8 @@ for (int spins = 0;; ++spins) {{
 """
 )
 
-# The caller's part of a pass, after ``_post`` wrote its fields: post it (a new pass
-# number, the bands, the sleepers woken), then, with ``join``, take bands until none is
-# left and wait for the helpers' (``_JOIN_CPP``).  Without it the caller returns at once
-# and the helpers run the pass while the caller does other work (``BandPool.run`` with
-# ``wait=False``) until it joins.
+# The caller's end of a pass: take bands until none is left, wait for the helpers' and
+# write ``RAN`` (the tail of ``_RUN_CPP`` with ``join``, and all of ``_JOIN_CPP``).
 _JOIN_TAIL_CPP = f"""
 while (take(0)) {{}}
 // no band is left to take or to refuse: the ticket's count is the bands taken
@@ -260,6 +257,10 @@ return 0;
 #endif
 """
 
+# The caller's part of a pass, after ``_post`` wrote its fields: post it (a new pass
+# number, the bands, the sleepers woken), then, with ``join``, its end.  Without it the
+# caller returns at once and the helpers run the pass while the caller does other work
+# (``BandPool.run`` with ``wait=False``) until it joins (``_JOIN_CPP``).
 _RUN_CPP = (
     _BOARD_CPP
     + f"""

@@ -10,8 +10,10 @@ runs on) every build sees the same phases, and a change of a few percent shows w
 runs one after the other would bury it.  A worker that is not rendering waits on its
 pipe (its band threads go to sleep).  Reports per build the median frame, the median over
 turns of its turn's median against the first build's in the same round, and with
-``--profile`` each kernel's wall and thread CPU ms a frame (``LaunchProfile``).  The
-workers run one at a time: never two timed things at once.
+``--profile`` each kernel's wall and thread CPU ms a frame (``LaunchProfile``; a profiled
+pass is timed band by band and so waited for, so its frames leave out a pass running on
+beside the next one's Python, ``Launcher.overlapping``: compare frame times without it).
+The workers run one at a time: never two timed things at once.
 
     git worktree add /tmp/base HEAD~3
     .venv/bin/python scripts/bench_builds.py /tmp/base . [--scenes suzanne_metal_env glass_dragon]

@@ -12,6 +12,9 @@ piece); then the frame's stages and the host time no kernel accounts for.  With
 frames are the kept frames of a gaze replay over a still camera (the gaze fixed at the
 centre): what the budget loop's traced window is left with.  ``--shadow-maps`` shadows the
 raster layer with shadow maps (their pass and the lighting kernel's shadowed variant).
+A profiled pass is timed band by band and so waited for: the profiled frame does not run
+a pass on beside the next one's Python (``Launcher.overlapping``), so its host time is
+what an unprofiled frame overlaps.
 """
 
 from __future__ import annotations

@@ -207,7 +207,8 @@ def test_a_pass_posted_without_waiting_runs_while_the_caller_goes_on() -> None:
 @pytest.mark.parametrize("threads", [2, 3])
 def test_the_next_pass_starts_after_the_one_in_flight(threads: int) -> None:
     """A pass that doubles what the pass before it, posted without waiting, wrote sees
-    all of it; so does the pass after a close (closing finishes the pass in flight)."""
+    all of it, whether it is waited for or posted without waiting too (the pass in flight
+    finished natively right before it is posted); closing finishes the pass in flight."""
     height, width = 97, 5
     out = wp.zeros((height, width), dtype=wp.int32, device="cpu")
     wp.load_module(_mark_rows.module, device="cpu")
@@ -215,9 +216,10 @@ def test_the_next_pass_starts_after_the_one_in_flight(threads: int) -> None:
     double = np.zeros((len(spans), BAND_COLUMNS), dtype=np.int64)
     double[:, :5] = _bands(spans, 0, width)[:, :5]
     pool = BandPool(wp.get_device("cpu"), threads)
-    for _ in range(3):
+    for k in range(3):
         pool.run([_blocks(_mark_rows, [out, 1], 3, threads)], _bands(spans, 1, width), wait=False)
-        pool.run([_blocks(_double_rows, [out], 3, threads)], double)
+        pool.run([_blocks(_double_rows, [out], 3, threads)], double, wait=k == 1)
+        assert pool.in_flight == (k != 1) and pool.finished_s >= 0.0
     pool.run([_blocks(_mark_rows, [out, 1], 3, threads)], _bands(spans, 1, width), wait=False)
     pool.close()
     np.testing.assert_array_equal(out.numpy(), np.full((height, width), 15, np.int32))  # ((1*2+1)*2+1)*2+1

@@ -13,7 +13,9 @@ and takes bands as they are posted, spinning for a short while after the last on
 again.  The caller posts a pass (``BandPool.run``: one more native call with the GIL
 released), takes bands itself and returns once every band taken is done; or, posting
 without waiting, returns at once and takes part later (``BandPool.join``, or its next
-pass), the helpers working on the pass meanwhile.
+pass, whose native post first finishes it: no Python between the two), the helpers
+working on the pass meanwhile.  A pass's fields are written beside the board first
+(``_staged``, while the pass before runs) and copied onto it by the native post.
 
 The board (an int64 Warp array) holds one pass at a time:
 
@@ -246,24 +248,34 @@ for (int spins = 0;; ++spins) {{
 )
 
 # The caller's end of a pass: take bands until none is left, wait for the helpers' and
-# write ``RAN`` (the tail of ``_RUN_CPP`` with ``join``, and all of ``_JOIN_CPP``).
-_JOIN_TAIL_CPP = f"""
-while (take(0)) {{}}
-// no band is left to take or to refuse: the ticket's count is the bands taken
-const long long taken = (long long)(((unsigned long long)load({TICKET}) >> {BAND_BITS}) & mask);
-while (load({DONE}) < taken) WH_PAUSE();
-b[{RAN}] = taken;
-return 0;
-#endif
+# write ``RAN`` (``finish``: for the pass in flight before the next is posted, and for
+# the caller's own pass where it waits for it).
+_FINISH_CPP = f"""
+auto finish = [&]() {{
+    while (take(0)) {{}}
+    // no band is left to take or to refuse: the ticket's count is the bands taken
+    const long long taken = (long long)(((unsigned long long)load({TICKET}) >> {BAND_BITS}) & mask);
+    while (load({DONE}) < taken) WH_PAUSE();
+    b[{RAN}] = taken;
+}};
 """
 
-# The caller's part of a pass, after ``_post`` wrote its fields: post it (a new pass
-# number, the bands, the sleepers woken), then, with ``join``, its end.  Without it the
-# caller returns at once and the helpers run the pass while the caller does other work
-# (``BandPool.run`` with ``wait=False``) until it joins (``_JOIN_CPP``).
+# The caller's part of a pass whose fields ``BandPool._stage`` wrote into ``staged`` (the board's
+# layout): with ``finish_first``, finish the pass in flight (those fields were written
+# while it ran, so no Python lies between its end and the next pass's post); then copy
+# the fields onto the board and post the pass (a new pass number, the bands, the sleepers
+# woken); with ``join``, finish it too.  Without ``join`` the caller returns at once and
+# the helpers run the pass while the caller does other work (``BandPool.run`` with
+# ``wait=False``) until it joins (``_JOIN_CPP``, or the next pass's ``finish_first``).
 _RUN_CPP = (
     _BOARD_CPP
+    + _FINISH_CPP
     + f"""
+if (finish_first != 0) finish();
+const long long* st = (const long long*)staged.data;
+auto copy = [&](int i) {{ __atomic_store_n(&b[i], st[i], __ATOMIC_RELAXED); }};
+copy({STAGES}); copy({BANDS}); copy({TIMED}); copy({DEADLINE_NS});
+for (int i = {FN}; i < {ARGS + MAX_STAGES * MAX_THREADS}; ++i) copy(i);
 __atomic_store_n(&b[{DONE}], 0, __ATOMIC_SEQ_CST);
 __atomic_store_n(&b[{NAP}], 0, __ATOMIC_SEQ_CST);
 __atomic_store_n(&b[{BUSY_NS}], 0, __ATOMIC_SEQ_CST);
@@ -277,14 +289,15 @@ if (load({SLEEPERS}) > 0) {{
     ((PthreadFn)b[{BROADCAST_FN}])((void*)b[{COND}]);
     ((PthreadFn)b[{UNLOCK_FN}])((void*)b[{MUTEX}]);
 }}
-if (join == 0) return 0;
+if (join != 0) finish();
+return 0;
+#endif
 """
-    + _JOIN_TAIL_CPP
 )
 
 # The caller joins the pass it posted without waiting: takes the bands left, waits for
 # the helpers' and writes ``RAN``.
-_JOIN_CPP = _BOARD_CPP + _JOIN_TAIL_CPP
+_JOIN_CPP = _BOARD_CPP + _FINISH_CPP + "finish();\nreturn 0;\n#endif\n"
 
 
 def _wake_cpp(slot: int) -> str:
@@ -310,7 +323,9 @@ def _worker_loop(board: wp.array(dtype=wp.int64), slot: int) -> int: ...
 
 
 @wp.func_native(_RUN_CPP)
-def _run_pass(board: wp.array(dtype=wp.int64), bands: int, join: int) -> int: ...
+def _run_pass(
+    board: wp.array(dtype=wp.int64), staged: wp.array(dtype=wp.int64), bands: int, finish_first: int, join: int
+) -> int: ...
 
 
 @wp.func_native(_JOIN_CPP)
@@ -331,8 +346,10 @@ def _worker_kernel(board: wp.array(dtype=wp.int64), slot: int):
 
 
 @wp.kernel
-def _run_kernel(board: wp.array(dtype=wp.int64), bands: int, join: int):
-    _run_pass(board, bands, join)
+def _run_kernel(
+    board: wp.array(dtype=wp.int64), staged: wp.array(dtype=wp.int64), bands: int, finish_first: int, join: int
+):
+    _run_pass(board, staged, bands, finish_first, join)
 
 
 @wp.kernel
@@ -537,7 +554,14 @@ class BandPool:
         self._host[SPIN_NS] = spin_ns
         self._host[CLOCK_WALL] = time.CLOCK_MONOTONIC
         self._host[CLOCK_CPU] = time.CLOCK_THREAD_CPUTIME_ID
-        self._run = DirectLaunch(_run_kernel, device, [self._board], tail=2)
+        # a pass's fields are written here first (the board's layout), so the native post
+        # copies them onto the board after the pass in flight is done (``_RUN_CPP``)
+        self._staged = wp.zeros(BOARD_SIZE, dtype=wp.int64, device=device)
+        self._staged_host = self._staged.numpy()
+        #: What the last ``run`` posted without waiting spent finishing the pass in flight
+        #: first (seconds, its own post's microseconds included; 0 where none was).
+        self.finished_s = 0.0
+        self._run = DirectLaunch(_run_kernel, device, [self._board, self._staged], tail=3)
         self._join = DirectLaunch(_join_kernel, device, [self._board])
         #: The pass posted without waiting (its argument blocks and band table, held until
         #: it is joined), or None.
@@ -599,10 +623,11 @@ class BandPool:
         wait: bool = True,
     ) -> int:
         """Run one pass and return how many of its bands ran (all, or those before the first
-        refused by the deadline), after the pass in flight, if any, is done (``join``).
-        Without ``wait`` (a pass with no deadline) only post it and return its band count:
-        the helpers run it while the caller goes on, and ``join`` (or the next ``run``)
-        takes part in what is left and waits for it; ``stages`` and ``bands`` are held
+        refused by the deadline), after the pass in flight, if any, is done (the native
+        post finishes it first; ``finished_s``).  Without ``wait`` (a pass with no
+        deadline) only post it and return its band count: the helpers run it while the
+        caller goes on, and ``join`` (or the next ``run``) takes part in what is left and
+        waits for it; ``stages`` and ``bands`` are held
         until then, and nothing the pass reads or writes (its band times included) may be
         touched before.  Band k runs each stage s in order: ``forward`` of stage
         s's kernel with the thread's argument block ``stages[s][slot]`` (one per thread),
@@ -623,12 +648,13 @@ class BandPool:
         if not wait and deadline_ns is not None:
             raise ValueError("a pass with a deadline cannot be posted without waiting for it")
         with self._posting:  # one pass on the board at a time
-            self._join_in_flight()
-            if wait:
-                return self._post(stages, bands, timed, deadline_ns, True)
-            self._in_flight = (stages, bands)
-            self._post(stages, bands, timed, None, False)
-            return count
+            self._stage(stages, bands, timed, deadline_ns)  # (while the pass in flight runs)
+            finishing = self._in_flight  # (held until it is done)
+            self._in_flight = None if wait else (stages, bands)
+            start = time.perf_counter()
+            self._run(count, int(finishing is not None), int(wait))
+            self.finished_s = time.perf_counter() - start if finishing is not None and not wait else 0.0
+            return int(self._host[RAN]) if wait else count
 
     @property
     def in_flight(self) -> bool:
@@ -651,17 +677,12 @@ class BandPool:
             self._join()
             self._in_flight = None
 
-    def _post(
-        self,
-        stages: Sequence[Sequence[PackedKernel]],
-        bands: np.ndarray,
-        timed: bool,
-        deadline_ns: int | None,
-        wait: bool,
-    ) -> int:
-        """Write the pass's fields on the board and post it, with ``wait`` taking part
-        and waiting until it is done (``run``); how many bands ran (with ``wait``)."""
-        host = self._host
+    def _stage(
+        self, stages: Sequence[Sequence[PackedKernel]], bands: np.ndarray, timed: bool, deadline_ns: int | None
+    ) -> None:
+        """Write the pass's fields beside the board (``_staged``, the board's layout),
+        where the native post takes them from (``run``)."""
+        host = self._staged_host
         host[STAGES] = len(stages)
         for s, blocks in enumerate(stages):
             offsets = blocks[0].offsets
@@ -672,8 +693,6 @@ class BandPool:
         host[BANDS] = bands.ctypes.data
         host[TIMED] = int(timed)
         host[DEADLINE_NS] = NO_DEADLINE if deadline_ns is None else min(int(deadline_ns), NO_DEADLINE)
-        self._run(bands.shape[0], int(wait))
-        return int(host[RAN])
 
 
 def probe_pool(pool: BandPool) -> bool:

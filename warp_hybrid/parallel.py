@@ -436,22 +436,16 @@ class Launcher:
     def join(self) -> None:
         """Take part in the pass in flight (``overlapping``), if any, and wait until it is
         done, its wait charged to the stage that posted it."""
-        done = self._join_pass()
-        if done is not None:
-            done()
-
-    def _join_pass(self) -> Callable[[], None] | None:
-        """``join`` but for the joined pass's ``then``, returned for the caller to call
-        (after posting the next pass, whose run it then overlaps)."""
         bands = self._pool_bands
         if bands is None or not bands.in_flight:
-            return None
+            return
         waited = bands.join()
         if self._overlap is not None and self._flight_stage is not None:
             self._overlap.charge(self._flight_stage, waited)
         done = self._flight_done
         self._flight_stage = self._flight_done = None
-        return done
+        if done is not None:
+            done()
 
     def wake(self) -> None:
         """Wake the native band threads that sleep (``BandPool.wake``), before the work
@@ -775,10 +769,13 @@ class Launcher:
         blocks = [self._pack(kernel, inputs, tail, s) for s, ((kernel, inputs), tail) in enumerate(zip(stages, tails))]
         profile = self.profile
         if self._overlap is not None and not timed and profile is None and deadline_ns is None:
-            last_done = self._join_pass()
+            # (the pass in flight, if any, is finished natively right before this one is posted)
+            last_stage, last_done = self._flight_stage, self._flight_done
+            count = self._bands.run(blocks, table, then is not None, wait=False)
+            if last_stage is not None:
+                self._overlap.charge(last_stage, self._bands.finished_s)
             self._flight_stage = self._overlap.current
             self._flight_done = then
-            count = self._bands.run(blocks, table, then is not None, wait=False)
             if last_done is not None:  # (while this pass runs)
                 last_done()
             return count

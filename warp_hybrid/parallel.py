@@ -436,16 +436,20 @@ class Launcher:
     def join(self) -> None:
         """Take part in the pass in flight (``overlapping``), if any, and wait until it is
         done, its wait charged to the stage that posted it."""
-        bands = self._pool_bands
-        if bands is None or not bands.in_flight:
+        if not self.in_flight:
             return
-        waited = bands.join()
+        done = self._landed(self._pool_bands.join())
+        if done is not None:
+            done()
+
+    def _landed(self, waited: float) -> Callable[[], None] | None:
+        """The pass in flight is done, after ``waited`` seconds' wait: charge them to the
+        stage that posted it and return its ``then`` (for the caller to call)."""
         if self._overlap is not None and self._flight_stage is not None:
             self._overlap.charge(self._flight_stage, waited)
         done = self._flight_done
         self._flight_stage = self._flight_done = None
-        if done is not None:
-            done()
+        return done
 
     def wake(self) -> None:
         """Wake the native band threads that sleep (``BandPool.wake``), before the work
@@ -770,10 +774,9 @@ class Launcher:
         profile = self.profile
         if self._overlap is not None and not timed and profile is None and deadline_ns is None:
             # (the pass in flight, if any, is finished natively right before this one is posted)
-            last_stage, last_done = self._flight_stage, self._flight_done
+            finishing = self.in_flight
             count = self._bands.run(blocks, table, then is not None, wait=False)
-            if last_stage is not None:
-                self._overlap.charge(last_stage, self._bands.finished_s)
+            last_done = self._landed(self._bands.finished_s) if finishing else None
             self._flight_stage = self._overlap.current
             self._flight_done = then
             if last_done is not None:  # (while this pass runs)

@@ -42,8 +42,8 @@ TONEMAPS = tuple(OPERATORS)
 
 class PostProcess(RenderPass):
     """Linear HDR colour in, uint8 sRGB (H, W, 3) out (stages "tonemap" and "aa"); its
-    exposure's one-thread launches and host writes wait for the pass in flight
-    (``Launcher.join``)."""
+    host writes (the metered sums zeroed) and reads (the EV) wait for the pass in flight
+    (``Launcher.join``), its launches queue behind it."""
 
     overlapped = True
 

@@ -16,7 +16,7 @@ code generator wrote above it.
 
 Reading it: a sample lands on the instruction that waits, often the one after a slow load
 or a call, so a call site's share is usually its callee's stall, not the call (forcing
-such calls inline changed nothing, README "Grouped launches").  Confirm a reading with
+such calls inline changed nothing, docs/speed_journal.md, "Grouped launches").  Confirm a reading with
 a paired timing before changing code.  Linux only: needs ``perf`` and binutils
 (``readelf``, ``addr2line``, ``c++filt``).
 """

@@ -203,7 +203,8 @@ _START_FLOATS = _PUSHED + _RAY_FLOATS
 #: The fewest first rays of a packet worth a packet query (fewer: each its own query).
 #: On this machine packets of 2 and of 4 gave the same path-kernel times, and never
 #: using them 4-7% more on the staircase, the glass-mirror box and the smoke test
-#: (README, "First rays as packets"); 4 keeps sparse groups' scattered rays single.
+#: (docs/speed_journal.md, "First rays as packets"); 4 keeps sparse groups' scattered rays
+#: single.
 _PACKET_MIN = wp.constant(4)
 if ITEM_GROUP % PACKET != 0:
     raise ValueError(f"a launch item's group ({ITEM_GROUP}) must be whole packets of {PACKET}")
@@ -323,7 +324,7 @@ def path_kernel(variant: TraceVariant) -> wp.Kernel:
     # Inline (its one call site is the path loop): Warp passes struct arguments by value,
     # and where clang kept this body out of line (the variants with glass and a dome, whose
     # body is biggest) each call copied the ~2.8 KB of scene, ambient and frame arguments;
-    # the smoke test's path kernel took 1.7x as long (README, "`shade_hit` inline").
+    # the smoke test's path kernel took 1.7x as long (docs/speed_journal.md, "`shade_hit` inline").
     @wp.func(inline=True)
     def shade_hit(
         scene: SceneGPU,

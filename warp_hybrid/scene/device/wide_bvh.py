@@ -12,8 +12,8 @@ and copies each leaf's triangle corners into one array in leaf order, four trian
 group, each axis of each corner a row of four lanes (a leaf starts a group; the spare
 slots of its last group repeat that group's first triangle), so a group's part of the
 triangle test loads nine 4-lane vectors (``grouped_leaves``; 5-22% less time a single-ray
-query on the staircase's and the glass dragon's rays, README "The textured dome's texel
-reads taken apart, leaf triangles a lane each").  Leaves keep
+query on the staircase's and the glass dragon's rays, docs/speed_journal.md, "The textured
+dome's texel reads taken apart, leaf triangles a lane each").  Leaves keep
 Warp's triangles and its watertight triangle test (``intersect_ray_tri_woop``), the
 ray's part of it once per ray and the triangle's part for four of a leaf's triangles at
 once, each lane Warp's arithmetic operation for operation, so the answers are Warp's
@@ -34,7 +34,8 @@ ray touches, and an axis the ray does not move along tests the origin against th
 the staircase (262k triangles, one thread, 640x480 G-buffer points): a mirror ray's
 closest hit 1242 ns with Warp's query, 498 ns with this one over Warp's own tree; a
 shadow ray's any-hit 913 ns and 315 ns (README, "4-wide BVH copies"); the tree of its own
-made both another 1.1-1.3x faster ("Re-measured on the AMD EPYC machine (2026-12-03)").
+made both another 1.1-1.3x faster (docs/speed_journal.md, "Re-measured on the AMD EPYC
+machine (2026-12-03)").
 
 CPU only: the tracer's CUDA variant keeps Warp's own queries (``TraceVariant.wide_bvh``),
 and the native code compiles to a stub under ``__CUDA_ARCH__``.  The scene's own copy is

@@ -668,14 +668,10 @@ class BandPool:
             return 0.0
         with self._posting:
             start = time.perf_counter()
-            self._join_in_flight()
+            if self._in_flight is not None:  # (another thread may have joined it meanwhile)
+                self._join()
+                self._in_flight = None
             return time.perf_counter() - start
-
-    def _join_in_flight(self) -> None:
-        """``join`` under the posting lock."""
-        if self._in_flight is not None:
-            self._join()
-            self._in_flight = None
 
     def _stage(
         self, stages: Sequence[Sequence[PackedKernel]], bands: np.ndarray, timed: bool, deadline_ns: int | None

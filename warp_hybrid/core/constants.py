@@ -17,6 +17,12 @@ TWO_PI = wp.constant(2.0 * math.pi)
 #: Rec. 709 luminance weights of linear RGB.
 LUMA_709 = (0.2126, 0.7152, 0.0722)
 
+#: Triangles per raster cluster: a run of consecutive triangles that the coverage pass
+#: culls by one box and sets up together (``primary.kernels``, ``primary.cover_batch``);
+#: the loader stores a still mesh's triangles so that its runs are compact
+#: (``scene.usd.triangle_order``).
+CLUSTER_TRIANGLES = wp.constant(64)
+
 #: Surfaces smoother than this roughness get a traced mirror reflection; rougher ones
 #: keep the prefiltered dome term.  One rule for both the feature analysis (which
 #: decides whether reflection code is compiled) and the tracer kernels (which decide

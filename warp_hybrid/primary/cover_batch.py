@@ -26,13 +26,14 @@ from __future__ import annotations
 import warp as wp
 
 from ..core.camera import CameraGPU
+from ..core.constants import CLUSTER_TRIANGLES
 from ..core.native_rows import LAMBDA_HEADER_CPP, float_literal
 from ..core.scene_gpu import FLAG_CUTOUT, SceneGPU
 from .clipping import GUARD_PX, IN_FRONT_BIT, OUTSIDE_BITS, ProjectedPoints
 from .coverage import HALF_SUBPIXEL, MODE_DEPTH, NARROW_PX, SUBPIXEL, RasterTarget
 
 #: The most triangles one call sets up (a cluster's; one bit each in the mask it returns).
-BATCH_TRIANGLES = 64
+BATCH_TRIANGLES = CLUSTER_TRIANGLES
 
 
 _COVER_BATCH_CPP = f"""

@@ -4,8 +4,9 @@
   point in camera space and, in front of the near plane, projected to the screen, so
   the triangles sharing a vertex reuse it (and see bit-identical corners).
 * ``cluster_bounds_kernel`` (one thread per cluster): the bounding box of each run of
-  ``CLUSTER_TRIANGLES`` consecutive triangles (meshes are stored whole, so a run is a
-  patch of one mesh), computed again only when the points move.
+  ``CLUSTER_TRIANGLES`` consecutive triangles (meshes are stored whole, still ones in a
+  compact order, ``scene.usd.triangle_order``, so a run is a patch of one mesh),
+  computed again only when the points move.
 * ``coverage_kernel`` (one thread per cluster): a cluster whose box lies wholly outside
   one plane of the view frustum is skipped (its triangles would all fail the same
   plane's trivial reject, so nothing changes but the cost); on the CPU the others are
@@ -51,7 +52,7 @@ from __future__ import annotations
 import warp as wp
 
 from ..core.camera import CAMERA_RAY_CPP, CameraGPU, pixel_ray
-from ..core.constants import LUMA_709_CPP, luma709
+from ..core.constants import CLUSTER_TRIANGLES, LUMA_709_CPP, luma709
 from ..core.gbuffer import BACKGROUND, GBufferRows, Optics
 from ..core.native_rows import (
     CHUNK_CPP,
@@ -82,7 +83,7 @@ from .clipping import (
     raster_clipped,
     to_camera,
 )
-from .cover_batch import BATCH_TRIANGLES, cover_batch
+from .cover_batch import cover_batch
 from .coverage import EMPTY_KEY, RasterTarget, raster_triangle
 from .hit_record import EXACT_HIT_CPP, exact_hit, pixel_footprint, sample_steps
 
@@ -90,8 +91,6 @@ wp.set_module_options({"enable_backward": False, "cpu_compiler_flags": WIDE_VECT
 
 # Ray-cast path: at most this many cut-away hits are stepped past per pixel.
 MAX_CUTOUT_LAYERS = wp.constant(32)
-# Triangles per raster cluster (a launch item of the coverage pass).
-CLUSTER_TRIANGLES = wp.constant(BATCH_TRIANGLES)
 # A box corner counts as outside a frustum plane only beyond this relative margin, far
 # above float32 rounding, so a cluster is never culled where a triangle of it would
 # pass the per-triangle test by rounding.

@@ -95,6 +95,7 @@ from .stage_metadata import check_stage_metadata
 from .subdivision import DEFAULT_LEVELS
 from .subdivision_level import AUTO, DEFAULT_SCREEN, LevelChooser, Levels, check_levels, screen_chooser
 from .textures import ImageLibrary
+from .triangle_order import reorder_part
 from .validate import Diagnostics, check_extent, validate_scene
 
 _SKIPPED_PURPOSES = (UsdGeom.Tokens.guide, UsdGeom.Tokens.proxy)
@@ -698,7 +699,10 @@ class UsdSceneSource:
             colours = corner_colors(local, item.prim, colour_source, time, self.diagnostics)
         world = to_world(local, uvs, item.matrices, colours)
         animated = local.time_varying or item.animated
-        part = _Part(world, np.tile(tri_material, item.matrices.shape[0]), item.names, animated)
+        tri_material = np.tile(tri_material, item.matrices.shape[0])
+        if not animated:  # (a part that may vary keeps its order: later times patch it in place)
+            world, tri_material = reorder_part(world, tri_material)
+        part = _Part(world, tri_material, item.names, animated)
         if not animated:
             self._parts[item.key] = part
         return part

@@ -20,7 +20,9 @@ resolves each chunk of pixels as it reads it, "resolve" 0 ms, its time in "surfa
   every cluster, only its own rows of the first slice (``kernels.cover_rows_kernel``,
   one launch item a band; the bands never meet, so one slice serves them all and the
   resolve reads one key a pixel).  Every pass here, the slices' clear included
-  (``kernels.clear_keys_kernel``), is a band pass of the launcher (``parallel``).
+  (``kernels.clear_keys_kernel``), is a band pass of the launcher (``parallel``).  On
+  CUDA (one "thread", one slice) a GPU thread takes a cluster, whose key updates are
+  atomic there.
 * ``resolve``: per pixel, the winning triangle is intersected with the pixel's camera
   ray for exact depth and barycentrics: the hit record (``kernels.resolve_kernel``; in
   a frame's surface pass the same statements), the same one the ray-cast path writes.
@@ -147,10 +149,10 @@ class Rasterizer(PrimaryVisibility):
         rows: RowSpan | None = None,
     ) -> int:
         """Transform the points, then clear each thread's slice and run the coverage kernel
-        into it: over bands of clusters (``Launcher.launch_bands``), or, for fewer than
-        ``MIN_BAND_CLUSTERS`` clusters a thread (and on one thread), every cluster into
+        into it: over bands of clusters (``Launcher.launch_bands``), or, on the CPU for fewer
+        than ``MIN_BAND_CLUSTERS`` clusters a thread (and on one thread), every cluster into
         piece k's band of rows, piece k clearing and writing those rows of slice 0 (module
-        docstring).  ``rows`` (first, stop): only those rows of the slices are cleared and
+        docstring); on CUDA one launch of a thread a cluster into the one slice.  ``rows`` (first, stop): only those rows of the slices are cleared and
         covered.  Returns how many slices, from the first, were written (the others are
         untouched)."""
         launcher = self.launcher
@@ -164,7 +166,7 @@ class Rasterizer(PrimaryVisibility):
         def inputs(slot: int, band_rows: RowSpan = (top, bottom)) -> list:
             return [scene.gpu, camera, pts, self._target(keys, slot, mode, band_rows), bounds, count]
 
-        if clusters < threads * MIN_BAND_CLUSTERS or threads == 1:
+        if launcher.device.is_cpu and (clusters < threads * MIN_BAND_CLUSTERS or threads == 1):
             # piece k clears and covers its band of rows of slice 0, every cluster each
             spans = [band(k, threads, bottom - top) for k in range(threads)]
             launcher.launch_bands(
@@ -177,6 +179,9 @@ class Rasterizer(PrimaryVisibility):
         launcher.launch_pixels(
             kernels.clear_keys_kernel, threads * (bottom - top), width, [keys, wp.uint64(clear), top, bottom - top]
         )
+        if launcher.device.is_cuda:  # a GPU thread a cluster, its key updates atomic (one slice)
+            launcher.launch_items(kernels.coverage_kernel, clusters, inputs(0))
+            return threads
         spans = self._cluster_bands.spans(clusters, band_count(clusters, threads, MIN_BAND_CLUSTERS))
         launcher.launch_bands(
             kernels.coverage_kernel,

@@ -39,11 +39,11 @@ _MORTON_BITS = 10
 
 
 def _spread_bits(v: np.ndarray) -> np.ndarray:
-    """The low ``_MORTON_BITS`` bits of each of ``v`` (uint64) two zero bits apart."""
-    v = (v | (v << np.uint64(16))) & np.uint64(0x030000FF)
-    v = (v | (v << np.uint64(8))) & np.uint64(0x0300F00F)
-    v = (v | (v << np.uint64(4))) & np.uint64(0x030C30C3)
-    return (v | (v << np.uint64(2))) & np.uint64(0x09249249)
+    """The low ``_MORTON_BITS`` bits of each of ``v`` (uint32) two zero bits apart."""
+    v = (v | (v << np.uint32(16))) & np.uint32(0x030000FF)
+    v = (v | (v << np.uint32(8))) & np.uint32(0x0300F00F)
+    v = (v | (v << np.uint32(4))) & np.uint32(0x030C30C3)
+    return (v | (v << np.uint32(2))) & np.uint32(0x09249249)
 
 
 def morton_order(centres: np.ndarray) -> np.ndarray:
@@ -53,19 +53,25 @@ def morton_order(centres: np.ndarray) -> np.ndarray:
     lo = centres.min(axis=0)
     extent = max(float((centres.max(axis=0) - lo).max()), np.finfo(np.float64).tiny)
     top = (1 << _MORTON_BITS) - 1
-    cells = np.clip(((centres - lo) / extent * top).astype(np.int64), 0, top).astype(np.uint64)
-    codes = _spread_bits(cells[:, 0]) | (_spread_bits(cells[:, 1]) << np.uint64(1))
-    codes |= _spread_bits(cells[:, 2]) << np.uint64(2)
+    cells = np.clip(((centres - lo) / extent * top).astype(np.int32), 0, top).astype(np.uint32)
+    codes = _spread_bits(cells[:, 0]) | (_spread_bits(cells[:, 1]) << np.uint32(1))
+    codes |= _spread_bits(cells[:, 2]) << np.uint32(2)
     return np.argsort(codes, kind="stable")
 
 
-def runs_extent(corners: np.ndarray) -> float:
-    """The sum over runs of ``CLUSTER_TRIANGLES`` consecutive triangles (``corners``
-    (T, 3, 3)) of their bounding box's width, height and depth."""
-    starts = np.arange(0, len(corners), CLUSTER_TRIANGLES)
-    lo = np.minimum.reduceat(corners.min(axis=1), starts, axis=0)
-    hi = np.maximum.reduceat(corners.max(axis=1), starts, axis=0)
-    return float((hi - lo).sum())
+def runs_extent(lower: np.ndarray, upper: np.ndarray) -> float:
+    """The sum over runs of ``CLUSTER_TRIANGLES`` consecutive triangles (their boxes'
+    corners ``lower``, ``upper`` (T, 3)) of the run's bounding box's width, height and depth."""
+    starts = np.arange(0, len(lower), CLUSTER_TRIANGLES)
+    return float((np.maximum.reduceat(upper, starts, axis=0) - np.minimum.reduceat(lower, starts, axis=0)).sum())
+
+
+def triangle_boxes(points: np.ndarray, tri_points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The bounding boxes (lower, upper (T, 3) float32) of the triangles ``tri_points``
+    (T, 3) over ``points`` (N, 3)."""
+    p = np.asarray(points, dtype=np.float32)
+    a, b, c = (p[tri_points[:, k]] for k in range(3))
+    return np.minimum(np.minimum(a, b), c), np.maximum(np.maximum(a, b), c)
 
 
 def coherent_order(points: np.ndarray, tri_points: np.ndarray) -> np.ndarray | None:
@@ -74,11 +80,11 @@ def coherent_order(points: np.ndarray, tri_points: np.ndarray) -> np.ndarray | N
     docstring)."""
     if len(tri_points) < 2 * CLUSTER_TRIANGLES:
         return None
-    corners = np.asarray(points, dtype=np.float64)[tri_points]
-    if not np.isfinite(corners).all():
+    lower, upper = triangle_boxes(points, tri_points)
+    if not (np.isfinite(lower).all() and np.isfinite(upper).all()):
         return None  # (validation names the mesh; no order is worth computing)
-    order = morton_order(corners.mean(axis=1))
-    if runs_extent(corners[order]) * MIN_GAIN > runs_extent(corners):
+    order = morton_order(lower + upper)  # (the boxes' centres, doubled: the order is the same)
+    if runs_extent(lower[order], upper[order]) * MIN_GAIN > runs_extent(lower, upper):
         return None
     return order
 
@@ -91,10 +97,11 @@ def reorder_part(world: WorldMesh, triangle_material: np.ndarray) -> tuple[World
     if order is None:
         return world, triangle_material
     tri_points = world.tri_points[order]
-    first_use = np.unique(tri_points.ravel(), return_index=True)
-    used = first_use[0][np.argsort(first_use[1], kind="stable")]
-    unused = np.setdiff1d(np.arange(len(world.points)), used, assume_unique=True)
-    point_order = np.concatenate([used, unused])
+    values, first_use = np.unique(tri_points.ravel(), return_index=True)
+    used = values[np.argsort(first_use)]  # (first uses are distinct: no ties)
+    unused = np.ones(len(world.points), dtype=bool)
+    unused[used] = False
+    point_order = np.concatenate([used, np.flatnonzero(unused)])
     new_index = np.empty(len(point_order), dtype=np.int64)
     new_index[point_order] = np.arange(len(point_order))
     ordered = replace(

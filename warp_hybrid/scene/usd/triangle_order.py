@@ -3,11 +3,11 @@
 The coverage pass takes a scene's triangles in runs of ``CLUSTER_TRIANGLES`` consecutive
 ones (``primary.kernels``): one box culls a run, and its triangles are set up together
 and write their pixels' depth keys one after the other.  Where an authored mesh lists
-its triangles in no spatial order (the glass dragon's 100k: the box of a run of 64 of
+its triangles in no spatial order (the glass dragon's 91k: the box of a run of 64 of
 them spans 284 of the screen's 480 rows at the median), every run reaches across the
 mesh, no run is culled, and every triangle's corners and keys lie far from the last
 one's.  ``coherent_order`` then puts the triangles in the Morton (Z-curve) order of their
-centroids, and their points in the order the triangles first use them, so runs are
+boxes' centres, and their points in the order the triangles first use them, so runs are
 patches and neighbouring triangles read neighbouring corners (the glass dragon's runs
 10x smaller; its raster frame 5.7% faster, the raster stage 1.13x and the surface pass
 1.15x, docs/speed_journal.md, twentieth session).
@@ -20,7 +20,8 @@ corners, their order (the winding), normals, uvs, colours and material, so what 
 is the same; where two surfaces tie exactly in depth (coplanar overlaps) the raster
 pass's winner is the one first in the new order.  The loader orders still parts only
 (``UsdSceneSource``: one order for every time code; a part whose points or transform
-may vary keeps the authored order, so later times patch it in place).
+may vary keeps the authored order, so later times patch it in place), and not a
+PointInstancer's batch of instances.
 """
 
 from __future__ import annotations
@@ -34,7 +35,7 @@ from .meshes import WorldMesh
 
 #: How many times smaller the runs' boxes must get for a mesh to be reordered.
 MIN_GAIN = 2.0
-#: Bits of a centroid's coordinate on each axis in its Morton code.
+#: Bits of a box centre's coordinate on each axis in its Morton code.
 _MORTON_BITS = 10
 
 

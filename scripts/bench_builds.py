@@ -19,7 +19,7 @@ With ``--threads N [N ...]`` every build runs once per thread count (a configura
 each, build by build, its thread counts in the order given), so one build against
 itself measures how its passes scale with threads in the same phases of the machine
 (the target "two threads >= 1.8x one on every pass over 2 ms"): the stage table (every
-frame's stages, ``RenderStats.stages_ms``) and, with ``--profile``, the kernel table give
+frame's ``stats["stages_ms"]``) and, with ``--profile``, the kernel table give
 each configuration's median ms and the first configuration's over its own, the median
 over turns of the two in the same round (a kernel that only one configuration runs, such
 as the one-thread coverage pass, has no ratio).

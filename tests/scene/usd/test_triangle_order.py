@@ -77,6 +77,18 @@ def test_a_coherent_mesh_and_a_small_one_keep_their_order() -> None:
     assert coherent_order(points, small) is None
 
 
+def test_a_mesh_with_a_non_finite_point_keeps_its_order() -> None:
+    """A NaN or infinite corner (which validation reports, naming the mesh) leaves the
+    authored order: no order is computed from it."""
+    points, quads = grid_mesh()
+    tri = shuffled(triangles_of(quads))
+    for bad in (np.nan, np.inf):
+        broken = points.copy()
+        broken[tri[5, 1]] = (bad, 0.0, 0.0)
+        assert coherent_order(broken, tri) is None
+    assert coherent_order(points, tri) is not None
+
+
 def test_a_shuffled_mesh_gets_compact_runs() -> None:
     """The shuffled grid's runs span the whole grid; in the new order they shrink by far
     more than ``MIN_GAIN``, and the order is a permutation of the triangles."""

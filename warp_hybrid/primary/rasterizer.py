@@ -152,9 +152,9 @@ class Rasterizer(PrimaryVisibility):
         into it: over bands of clusters (``Launcher.launch_bands``), or, on the CPU for fewer
         than ``MIN_BAND_CLUSTERS`` clusters a thread (and on one thread), every cluster into
         piece k's band of rows, piece k clearing and writing those rows of slice 0 (module
-        docstring); on CUDA one launch of a thread a cluster into the one slice.  ``rows`` (first, stop): only those rows of the slices are cleared and
-        covered.  Returns how many slices, from the first, were written (the others are
-        untouched)."""
+        docstring); on CUDA one launch of a thread a cluster into the one slice.  ``rows``
+        (first, stop): only those rows of the slices are cleared and covered.  Returns how
+        many slices, from the first, were written (the others are untouched)."""
         launcher = self.launcher
         count = scene.scene.triangle_count
         pts = self._transform_points(scene, camera)

@@ -700,11 +700,9 @@ class UsdSceneSource:
         world = to_world(local, uvs, item.matrices, colours)
         animated = local.time_varying or item.animated
         tri_material = np.tile(tri_material, item.matrices.shape[0])
-        if not animated:  # (a part that may vary keeps its order: later times patch it in place)
-            world, tri_material = reorder_part(world, tri_material)
-        part = _Part(world, tri_material, item.names, animated)
-        if not animated:
-            self._parts[item.key] = part
+        if animated:  # (kept in the authored order: later times patch it in place)
+            return _Part(world, tri_material, item.names, animated)
+        part = self._parts[item.key] = _Part(*reorder_part(world, tri_material), item.names, animated)
         return part
 
     def _read_local(self, item: _Item, time: float) -> LocalMesh:
